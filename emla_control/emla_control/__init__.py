@@ -1,0 +1,1 @@
+"""emla_control."""

@@ -1,0 +1,68 @@
+"""The `emla` command line: one entry point, one module per subcommand in `emla_control.commands`."""
+import argparse
+import importlib
+import sys
+from importlib.metadata import PackageNotFoundError, version
+
+from emla_sim.errors import InputError
+
+# Subcommand name -> module in emla_control.commands. Modules are imported only when their command runs,
+# so `emla --help` stays fast and a broken optional dependency cannot break the other commands.
+COMMANDS = {
+    'identify': 'identify',
+    'discrepancy': 'discrepancy',
+    'import': 'import_csv',
+    'launch': 'launch',
+    'simulate': 'simulate',
+    'scenario': 'scenario',
+    'play': 'play',
+    'echo': 'echo',
+    'run': 'run_node',
+}
+
+
+def _version():
+    try:
+        return version('emla_control')
+    except PackageNotFoundError:
+        return 'unknown (not installed)'
+
+
+def _command_module(name):
+    return importlib.import_module(f'emla_control.commands.{COMMANDS[name]}')
+
+
+def build_parser(names=tuple(COMMANDS)):
+    """The parser with the subcommands `names` loaded (all by default)."""
+    parser = argparse.ArgumentParser(
+        prog='emla',
+        description='Simulate, identify, control and diagnose electromagnetic linear actuators (ROS 2 Jazzy).')
+    parser.add_argument('--version', action='version', version=f'emla {_version()}')
+    sub = parser.add_subparsers(dest='command', metavar='COMMAND')
+    for name in names:
+        module = _command_module(name)
+        module.add_arguments(sub.add_parser(name, help=module.HELP, description=module.__doc__))
+    return parser
+
+
+def main(argv=None):
+    argv = sys.argv[1:] if argv is None else argv
+    # Only the named command's module is imported (fast start); --help and usage errors load them all.
+    chosen = next((a for a in argv if not a.startswith('-')), None)
+    parser = build_parser([chosen] if chosen in COMMANDS else tuple(COMMANDS))
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return 2
+    try:
+        return _command_module(args.command).run(args) or 0
+    except InputError as exc:
+        print(f'emla {args.command}: error: {exc}', file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f'emla {args.command}: interrupted', file=sys.stderr)
+        return 130
+
+
+if __name__ == '__main__':
+    sys.exit(main())

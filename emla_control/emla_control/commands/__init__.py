@@ -1,0 +1,1 @@
+"""Subcommands of the `emla` command line: each module has HELP, add_arguments(parser) and run(args)."""
