@@ -24,7 +24,8 @@ SAMPLE_FRAME = 'emla_msgs/msg/SampleFrame'
 PARAMETER_ESTIMATE = 'emla_msgs/msg/ParameterEstimate'
 ARX_MODEL = 'emla_msgs/msg/ArxModel'
 NAMESPACE = '/emla/'
-PARAMETERS_TOPIC = '/emla/parameters'
+PARAMETERS_TOPIC = '/emla/parameters'        # online estimates of the identifier
+TRUTH_TOPIC = '/emla/plant/parameters'        # the simulated plant's true parameters as they change
 ESTIMATE_FIELDS = ('resistance', 'inductance', 'emf_constant', 'mass', 'damping', 'load_force')
 
 # QoS offered by the suite's publishers, as rosbag2 stores it (REP-2012 v9 layout).
@@ -248,7 +249,8 @@ def parameter_estimate(stamp_ns, values, std=None, samples_used=0, residual_rms=
 @dataclass
 class BagContents:
     recording: Recording
-    estimates: list        # [(time_s, {name: value}, {name: std})], in time order
+    estimates: list        # [(time_s, {name: value}, {name: std})] from /emla/parameters, in time order
+    truth: list            # [(time_s, {name: value})] from /emla/plant/parameters (simulated runs only)
     metadata: dict         # custom_data of the bag
 
 
@@ -290,19 +292,24 @@ def read_bag(path):
     if not path.exists():
         raise InputError(f'{path}: no such file or directory')
     _, custom = _mcap_files(path)
-    frames, estimates = {}, []
+    frames, estimates, truth = {}, [], []
     for topic, msgtype, stamp, msg in iter_messages(path):
         if msgtype == SAMPLE_FRAME and topic.startswith(NAMESPACE):
             frames.setdefault(topic[len(NAMESPACE):], []).append(
                 (stamp_to_ns(msg.header.stamp), msg.sample_period, np.asarray(msg.data, dtype=float)))
-        elif msgtype == PARAMETER_ESTIMATE:
+        elif msgtype == PARAMETER_ESTIMATE and topic in (PARAMETERS_TOPIC, TRUTH_TOPIC):
             stamp_s = stamp_to_ns(msg.header.stamp) * 1e-9
-            estimates.append((stamp_s, {k: getattr(msg, k) for k in ESTIMATE_FIELDS if np.isfinite(getattr(msg, k))},
-                              {k: s for k, s in zip(ESTIMATE_FIELDS, msg.std) if np.isfinite(s)}))
+            values = {k: getattr(msg, k) for k in ESTIMATE_FIELDS if np.isfinite(getattr(msg, k))}
+            if topic == TRUTH_TOPIC:
+                truth.append((stamp_s, values))
+            else:
+                estimates.append((stamp_s, values, {k: s for k, s in zip(ESTIMATE_FIELDS, msg.std) if np.isfinite(s)}))
     if not frames:
         raise InputError(f'{path}: no SampleFrame topics under {NAMESPACE}')
     estimates.sort(key=lambda e: e[0])
-    return BagContents(recording=_assemble(frames, path, custom), estimates=estimates, metadata=custom)
+    truth.sort(key=lambda e: e[0])
+    return BagContents(recording=_assemble(frames, path, custom), estimates=estimates, truth=truth,
+                       metadata=custom)
 
 
 def _assemble(frames, path, custom):

@@ -1,0 +1,147 @@
+"""ARX(na, nb, nk) models identified by recursive least squares.
+
+    y(t) + a1 y(t-1) + ... + a_na y(t-na) = b1 u(t-nk) + ... + b_nb u(t-nk-nb+1) + e(t)
+
+is linear in theta = [a1 .. a_na, b1 .. b_nb] with the regressor
+phi(t) = [-y(t-1) .. -y(t-na), u(t-nk) .. u(t-nk-nb+1)]. Regressor rows start at the first sample whose
+history is complete (no zero padding).
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .rls import RecursiveLeastSquares
+
+
+def _check_orders(na, nb, nk):
+    for name, value in (('na', na), ('nb', nb), ('nk', nk)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
+            raise ValueError(f'ARX order {name} must be a non-negative integer, got {value!r}')
+    if na + nb == 0:
+        raise ValueError('ARX orders na and nb cannot both be zero')
+    return int(na), int(nb), int(nk)
+
+
+def _history(na, nb, nk):
+    """Samples needed before the first complete regressor row."""
+    return max(na, nk + nb - 1 if nb else 0)
+
+
+def arx_regressors(u, y, na, nb, nk):
+    """(Phi, Y): one row per sample t >= max(na, nk + nb - 1), Y = y(t)."""
+    na, nb, nk = _check_orders(na, nb, nk)
+    u = np.asarray(u, dtype=float)
+    y = np.asarray(y, dtype=float)
+    if u.ndim != 1 or u.shape != y.shape:
+        raise ValueError(f'input and output must be 1-D of equal length, got shapes {u.shape} and {y.shape}')
+    N, t0 = len(y), _history(na, nb, nk)
+    if N <= t0:
+        return np.empty((0, na + nb)), np.empty(0)
+    Phi = np.empty((N - t0, na + nb))
+    for i in range(1, na + 1):
+        Phi[:, i - 1] = -y[t0 - i:N - i]
+    for j in range(nb):
+        Phi[:, na + j] = u[t0 - nk - j:N - nk - j]
+    return Phi, y[t0:].copy()
+
+
+def fit_percent(y, yhat):
+    """100 (1 - ||y - yhat|| / ||y - mean(y)||)."""
+    y, yhat = np.asarray(y, dtype=float), np.asarray(yhat, dtype=float)
+    return float(100.0 * (1.0 - np.linalg.norm(y - yhat) / np.linalg.norm(y - y.mean())))
+
+
+def mse(y, yhat):
+    """(1/N) sum (y - yhat)^2."""
+    return float(np.mean((np.asarray(y, dtype=float) - np.asarray(yhat, dtype=float)) ** 2))
+
+
+@dataclass(frozen=True)
+class ArxModel:
+    """A(q) y = q^-nk B(q) u with a = [1, a1 .. a_na], b = [b1 .. b_nb]; fit and MSE on the data it came from."""
+
+    a: np.ndarray
+    b: np.ndarray
+    nk: int
+    forgetting: float = 1.0
+    fit_percent: float = float('nan')
+    mse: float = float('nan')
+
+    @classmethod
+    def from_theta(cls, theta, na, nb, nk, **fields):
+        theta = np.asarray(theta, dtype=float)
+        return cls(a=np.concatenate(([1.0], theta[:na])), b=theta[na:na + nb].copy(), nk=nk, **fields)
+
+    @property
+    def orders(self):
+        return len(self.a) - 1, len(self.b), self.nk
+
+    @property
+    def theta(self):
+        return np.concatenate((self.a[1:], self.b))
+
+    @property
+    def poles(self):
+        """Roots of z^na + a1 z^(na-1) + ... + a_na (the delay's poles at the origin are not included)."""
+        return np.roots(self.a)
+
+    @property
+    def zeros(self):
+        """Roots of B as a polynomial, b1 z^(nb-1) + ... + b_nb."""
+        return np.roots(self.b) if len(self.b) else np.empty(0, dtype=complex)
+
+    def predict(self, u, y):
+        """One-step-ahead predictions, aligned with arx_regressors(u, y, ...)[1]."""
+        Phi, _ = arx_regressors(u, y, *self.orders)
+        return Phi @ self.theta
+
+    def to_dict(self):
+        """The `emla identify --model arx` JSON object."""
+        def pairs(roots):
+            return [[float(z.real), float(z.imag)] for z in roots]
+        return {'model': 'arx', 'orders': list(self.orders), 'forgetting': self.forgetting,
+                'a': self.a.tolist(), 'b': self.b.tolist(), 'poles': pairs(self.poles),
+                'zeros': pairs(self.zeros), 'fit_percent': self.fit_percent, 'mse': self.mse}
+
+
+def identify_arx(u, y, na, nb, nk, forgetting=1.0, initial_covariance=1e6):
+    """RLS over the whole record from theta = 0, P = initial_covariance I; fit and MSE of the final model."""
+    Phi, Y = arx_regressors(u, y, na, nb, nk)
+    if len(Y) == 0:
+        raise ValueError(f'record of {len(y)} samples is too short for ARX({na}, {nb}, {nk})')
+    rls = RecursiveLeastSquares(na + nb, forgetting=forgetting, initial_covariance=initial_covariance)
+    rls.update_block(Phi, Y)
+    yhat = Phi @ rls.theta
+    return ArxModel.from_theta(rls.theta, na, nb, nk, forgetting=rls.forgetting,
+                               fit_percent=fit_percent(Y, yhat), mse=mse(Y, yhat))
+
+
+class ArxEstimator:
+    """Online ARX identification from consecutive frames of u and y (history kept across frames)."""
+
+    def __init__(self, na, nb, nk, **rls_options):
+        self._orders = _check_orders(na, nb, nk)
+        self.rls = RecursiveLeastSquares(na + nb, **rls_options)
+        self._lag = _history(*self._orders)
+        self.reset()
+
+    def reset(self):
+        self.rls.reset()
+        self._u = self._y = np.empty(0)
+
+    def update(self, u, y):
+        """Feed one frame; returns its a-priori prediction errors (NaN while the history is incomplete)."""
+        u = np.concatenate((self._u, np.asarray(u, dtype=float).reshape(-1)))
+        y = np.concatenate((self._y, np.asarray(y, dtype=float).reshape(-1)))
+        Phi, Y = arx_regressors(u, y, *self._orders)
+        frame = len(u) - len(self._u)
+        errors = np.full(frame, np.nan)
+        errors[frame - len(Y):] = self.rls.update_block(Phi, Y)
+        keep = max(len(u) - self._lag, 0)
+        self._u, self._y = u[keep:], y[keep:]
+        return errors
+
+    @property
+    def model(self):
+        return ArxModel.from_theta(self.rls.theta, *self._orders, forgetting=self.rls.forgetting)

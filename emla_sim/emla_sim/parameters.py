@@ -1,0 +1,59 @@
+"""Physical parameters of the electromagnetic linear actuator (SI units).
+
+    electrical:  u = R I + L dI/dt + Km v
+    mechanical:  m dv/dt = Km I - B v - Fl,   dx/dt = v
+"""
+import dataclasses
+import math
+import numbers
+
+# The six physical parameters, in the order used across the suite (identification, messages, reports).
+PARAMETER_NAMES = ('resistance', 'inductance', 'emf_constant', 'mass', 'damping', 'load_force')
+
+
+@dataclasses.dataclass(frozen=True)
+class ActuatorParameters:
+    """R (ohm), L (H), Km (N/A = V s/m), m (kg), B (N s/m), Fl (N, opposing +x) and the supply voltage (V)."""
+
+    resistance: float = 4.0
+    inductance: float = 1.6e-3
+    emf_constant: float = 10.8
+    mass: float = 0.036
+    damping: float = 2.0
+    load_force: float = 0.0
+    supply_voltage: float = 24.0
+
+    def __post_init__(self):
+        for field in dataclasses.fields(self):
+            value = getattr(self, field.name)
+            if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
+                raise ValueError(f'ActuatorParameters.{field.name} must be a finite number, got {value!r}')
+            object.__setattr__(self, field.name, float(value))
+        for name in ('resistance', 'inductance', 'emf_constant', 'mass', 'supply_voltage'):
+            if getattr(self, name) <= 0.0:
+                raise ValueError(f'ActuatorParameters.{name} must be positive, got {getattr(self, name)!r}')
+        if self.damping < 0.0:
+            raise ValueError(f'ActuatorParameters.damping must be >= 0, got {self.damping!r}')
+
+    def physical(self):
+        """The six physical parameters as {name: value} (PARAMETER_NAMES order)."""
+        return {name: getattr(self, name) for name in PARAMETER_NAMES}
+
+    def replace(self, **values):
+        """A copy with some fields set to new values."""
+        self._check_names(values)
+        return dataclasses.replace(self, **values)
+
+    def scaled(self, **factors):
+        """A copy with some fields multiplied by factors, e.g. scaled(resistance=1.5)."""
+        self._check_names(factors)
+        return dataclasses.replace(self, **{name: getattr(self, name) * f for name, f in factors.items()})
+
+    def _check_names(self, names):
+        known = [field.name for field in dataclasses.fields(self)]
+        unknown = sorted(set(names) - set(known))
+        if unknown:
+            raise ValueError(f'unknown actuator parameter(s) {unknown}; known: {known}')
+
+
+TABLE1 = ActuatorParameters()
