@@ -288,8 +288,8 @@ class ParameterChange:
 
     time: float
     parameter: str
-    factor: float = None
-    value: float = None
+    factor: float | None = None
+    value: float | None = None
 
     def __post_init__(self):
         if self.parameter not in PARAMETER_NAMES:

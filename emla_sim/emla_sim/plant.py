@@ -45,13 +45,13 @@ def zoh_matrices(resistance, inductance, emf_constant, mass, damping, dt):
 def _zoh_sequence(phi, gamma_u, offset, state, voltages):
     """Rows (I, x, v) at the end of each interval of the exact discretisation."""
     out = np.empty((voltages.size, 3))
-    z = state.copy()
-    new = np.empty(3)
+    i, x, v = state[0], state[1], state[2]
     for k in range(voltages.size):
-        for r in range(3):
-            new[r] = phi[r, 0] * z[0] + phi[r, 1] * z[1] + phi[r, 2] * z[2] + gamma_u[r] * voltages[k] + offset[r]
-        z[:] = new
-        out[k] = z
+        u = voltages[k]
+        i, x, v = (phi[0, 0] * i + phi[0, 1] * x + phi[0, 2] * v + gamma_u[0] * u + offset[0],
+                   phi[1, 0] * i + phi[1, 1] * x + phi[1, 2] * v + gamma_u[1] * u + offset[1],
+                   phi[2, 0] * i + phi[2, 1] * x + phi[2, 2] * v + gamma_u[2] * u + offset[2])
+        out[k, 0], out[k, 1], out[k, 2] = i, x, v
     return out
 
 

@@ -1,0 +1,98 @@
+"""The inverse-system law of the EMLA, its state feedback, and the state estimates it runs on.
+
+Inverse system (physics.md). The coil current the mechanics needs for a motion s(t) and the voltage that
+drives it follow from the two model equations read backwards:
+
+    I* = (m s'' + B s' + Fl) / Km,    u = R I* + L dI*/dt + Km s'
+       = (m L/Km) s''' + ((m R + B L)/Km) s'' + (B R/Km + Km) s' + R Fl/Km
+
+This is the paper's full form. Its mixed form u = (m L/Km) s''' + (B L/Km) s'' + Km s' + R I, with the
+measured current I, is the same law here: the controller takes s'' from the force balance
+s'' = (Km I - B s' - Fl)/m, and substituting that in either form gives the other. So there is nothing
+to decide by measurement between them; this module computes it once, as above.
+
+In series with the plant (exact parameters) the law leaves a triple integrator s''' = w. The virtual input
+w = r''' + k2 (r'' - s'') + k1 (r' - s') + k0 (r - s) with (s + wb)(s^2 + 2 zeta wb s + wb^2) as the
+closed-loop polynomial makes the tracking error decay with bandwidth wb = 2 pi f and damping ratio zeta.
+
+Sampling. The voltage is held over each control interval, so it acts on average half an interval late. The
+law is therefore evaluated for the interval midpoint: the reference there, and the estimated state
+predicted there by the triple integrator itself (with the w being computed, which makes w the solution of
+a scalar linear equation). With exact parameters this leaves a position error of about Ts^2/24 r''(t)
+instead of the Ts/2 r'(t) of a law evaluated at the sample instant.
+
+State estimates. s' comes from a two-state observer on the measured position, driven by the acceleration
+from the force balance with the measured current; s'' from the force balance. Both use the controller's
+model parameters, never the plant's state.
+"""
+import math
+
+import numba
+import numpy as np
+
+# Layout of the compiled law's coefficient vector.
+(R, L, KM, M, B, FL, K0, K1, K2, L1, L2, TS, SUPPLY) = range(13)
+N_COEFFICIENTS = 13
+# Layout of its state vector: the observer's prior estimates of position and velocity for the next sample.
+(X_HAT, V_HAT) = range(2)
+
+
+@numba.njit(cache=True)
+def inverse_voltage(resistance, inductance, emf_constant, mass, damping, load_force,
+                    velocity, acceleration, jerk):
+    """u = R I* + L dI*/dt + Km s' for the motion (s', s'', s'''); scalars or arrays."""
+    current = (mass * acceleration + damping * velocity + load_force) / emf_constant
+    current_rate = (mass * jerk + damping * acceleration) / emf_constant
+    return resistance * current + inductance * current_rate + emf_constant * velocity
+
+
+def feedback_gains(bandwidth, damping):
+    """(k0, k1, k2) placing the closed-loop poles at (s + wb)(s^2 + 2 zeta wb s + wb^2), wb = 2 pi bandwidth."""
+    if not (math.isfinite(bandwidth) and bandwidth > 0.0):
+        raise ValueError(f'bandwidth must be positive (Hz), got {bandwidth!r}')
+    if not (math.isfinite(damping) and damping > 0.0):
+        raise ValueError(f'damping ratio must be positive, got {damping!r}')
+    wb = 2.0 * math.pi * bandwidth
+    return wb ** 3, (1.0 + 2.0 * damping) * wb ** 2, (1.0 + 2.0 * damping) * wb
+
+
+def observer_gains(bandwidth, sample_period):
+    """(l1, l2) of the position/velocity observer with both error poles at z = exp(-2 pi bandwidth Ts).
+
+    Predictor x+ = x + Ts v + ..., v+ = v + Ts a + ..., corrector x += l1 e, v += l2 e (e = measured - x):
+    the error matrix (I - l c) A has trace 2 - l1 - l2 Ts and determinant 1 - l1, hence the gains.
+    """
+    if not (math.isfinite(bandwidth) and bandwidth > 0.0):
+        raise ValueError(f'observer bandwidth must be positive (Hz), got {bandwidth!r}')
+    pole = math.exp(-2.0 * math.pi * bandwidth * sample_period)
+    return 1.0 - pole ** 2, (1.0 - pole) ** 2 / sample_period
+
+
+@numba.njit(cache=True)
+def control_step(state, c, r0, r1, r2, r3, current, position):
+    """One control interval: correct the observer with the measurement, return the (limited) voltage, and
+    predict the state for the next sample. r0..r3 = reference s, s', s'', s''' at the interval midpoint."""
+    e = position - state[X_HAT]
+    x = state[X_HAT] + c[L1] * e
+    v = state[V_HAT] + c[L2] * e
+    a = (c[KM] * current - c[B] * v - c[FL]) / c[M]
+    h = 0.5 * c[TS]
+    w = (r3 + c[K2] * (r2 - a) + c[K1] * (r1 - v - h * a) + c[K0] * (r0 - x - h * v - 0.5 * h * h * a)) \
+        / (1.0 + c[K2] * h + 0.5 * c[K1] * h * h + c[K0] * h * h * h / 6.0)
+    u = inverse_voltage(c[R], c[L], c[KM], c[M], c[B], c[FL], v + h * a + 0.5 * h * h * w, a + h * w, w)
+    limited = min(max(u, -c[SUPPLY]), c[SUPPLY])
+    # The jerk the limited voltage really gives (u is affine in w), so saturation cannot wind the observer up.
+    du_dw = (c[M] * c[L] + h * (c[M] * c[R] + c[B] * c[L]) + 0.5 * h * h * (c[B] * c[R] + c[KM] ** 2)) / c[KM]
+    w += (limited - u) / du_dw
+    ts = c[TS]
+    state[X_HAT] = x + ts * v + 0.5 * ts * ts * a + ts * ts * ts * w / 6.0
+    state[V_HAT] = v + ts * a + 0.5 * ts * ts * w
+    return limited
+
+
+def open_loop_voltage(params, reference, times, sample_period):
+    """The inverse alone (no feedback) as ZOH voltages over [t, t + Ts) for each t in `times`."""
+    _, velocity, acceleration, jerk = reference(np.asarray(times) + 0.5 * sample_period)
+    p = params
+    return inverse_voltage(p.resistance, p.inductance, p.emf_constant, p.mass, p.damping, p.load_force,
+                           velocity, acceleration, jerk)
