@@ -1,0 +1,116 @@
+"""The adaptive inverse-system controller: model parameters, a guard on new estimates, the per-sample law.
+
+The law itself (inverse system, state feedback, observer, voltage limit) is `inverse.control_step`; this
+class holds its coefficients and state, and decides which identified parameters it takes. It has no
+integrator, and the observer is driven by the jerk the *limited* voltage gives, so saturation at the
+supply voltage winds nothing up.
+"""
+import collections
+import math
+
+import numpy as np
+
+from emla_sim.parameters import ActuatorParameters, PARAMETER_NAMES
+
+from . import inverse
+
+DEFAULT_BANDWIDTH = 150.0  # Hz
+DEFAULT_DAMPING = 1.0
+DEFAULT_OBSERVER_BANDWIDTH = 1000.0  # Hz
+# Guard on identified parameters: the identifier's start-up transient (samples), and the largest factor by
+# which R, L, Km or m may move in one update (a drift or even a +50 % step arrives over many updates).
+DEFAULT_MIN_SAMPLES = 1000
+DEFAULT_MAX_JUMP = 2.0
+_POSITIVE = ('resistance', 'inductance', 'emf_constant', 'mass')
+
+
+class InverseSystemController:
+    """Adaptive inverse-system position controller of an EMLA (SI units; bandwidth in Hz).
+
+    params: the initial model (ActuatorParameters). Call `step` once per control interval of
+    `sample_period` s with the sampled current and position and the reference (s, s', s'', s''') at the
+    interval's midpoint (`midpoint_times`); it returns the voltage to hold over the interval, within
+    +-supply_voltage. `update_parameters` offers it new identified parameters.
+    """
+
+    def __init__(self, params, *, bandwidth=DEFAULT_BANDWIDTH, damping=DEFAULT_DAMPING, sample_period=1e-4,
+                 supply_voltage=24.0, observer_bandwidth=DEFAULT_OBSERVER_BANDWIDTH,
+                 min_samples=DEFAULT_MIN_SAMPLES, max_jump=DEFAULT_MAX_JUMP):
+        if not (math.isfinite(sample_period) and sample_period > 0.0):
+            raise ValueError(f'sample_period must be positive, got {sample_period!r}')
+        if not (math.isfinite(supply_voltage) and supply_voltage > 0.0):
+            raise ValueError(f'supply_voltage must be positive, got {supply_voltage!r}')
+        if not max_jump > 1.0:
+            raise ValueError(f'max_jump must exceed 1, got {max_jump!r}')
+        self.sample_period = float(sample_period)
+        self.supply_voltage = float(supply_voltage)
+        self.bandwidth, self.damping = float(bandwidth), float(damping)
+        self.min_samples, self.max_jump = min_samples, float(max_jump)
+        self._c = np.empty(inverse.N_COEFFICIENTS)
+        self._c[[inverse.K0, inverse.K1, inverse.K2]] = inverse.feedback_gains(bandwidth, damping)
+        self._c[[inverse.L1, inverse.L2]] = inverse.observer_gains(observer_bandwidth, sample_period)
+        self._c[inverse.TS] = self.sample_period
+        self._c[inverse.SUPPLY] = self.supply_voltage
+        self._set_parameters(params.physical())
+        self._z = np.zeros(2)
+        self.accepted = 0
+        self.rejections = collections.Counter()  # reason -> count
+
+    @property
+    def parameters(self):
+        """The model the law uses now, as ActuatorParameters."""
+        return ActuatorParameters(**self._params, supply_voltage=self.supply_voltage)
+
+    @property
+    def rejected(self):
+        return sum(self.rejections.values())
+
+    def reset(self, position=0.0):
+        """Start the observer at rest at `position`."""
+        self._z[:] = (position, 0.0)
+
+    def midpoint_times(self, times):
+        """Where to evaluate the reference for control intervals starting at `times`."""
+        return np.asarray(times, dtype=float) + 0.5 * self.sample_period
+
+    def step(self, current, position, reference):
+        """The voltage for the coming interval; reference = (s, s', s'', s''') at its midpoint."""
+        r0, r1, r2, r3 = reference
+        return inverse.control_step(self._z, self._c, r0, r1, r2, r3, current, position)
+
+    def update_parameters(self, estimate, samples=None):
+        """Take identified parameters (a mapping with some of PARAMETER_NAMES) unless implausible.
+
+        Rejected, keeping the previous ones: fewer than `min_samples` behind the estimate, non-finite values,
+        non-positive R, L, Km or m, negative B, a load force beyond the stall force Km U / R, or R, L, Km or
+        m moving by more than a factor `max_jump` from the values held. Returns whether it was taken.
+        """
+        reason = self._implausible(estimate, samples)
+        if reason:
+            self.rejections[reason] += 1
+            return False
+        self._set_parameters({**self._params, **{k: float(estimate[k]) for k in PARAMETER_NAMES if k in estimate}})
+        self.accepted += 1
+        return True
+
+    def _implausible(self, estimate, samples):
+        if samples is not None and samples < self.min_samples:
+            return 'start-up'
+        new = {k: estimate[k] for k in PARAMETER_NAMES if k in estimate}
+        if not new:
+            return 'no parameters'
+        if not all(isinstance(v, (int, float, np.floating)) and math.isfinite(v) for v in new.values()):
+            return 'non-finite'
+        if any(new.get(k, 1.0) <= 0.0 for k in _POSITIVE) or new.get('damping', 0.0) < 0.0:
+            return 'non-physical'
+        merged = {**self._params, **new}
+        if abs(merged['load_force']) > merged['emf_constant'] * self.supply_voltage / merged['resistance']:
+            return 'load beyond stall force'
+        if any(not 1.0 / self.max_jump <= new[k] / self._params[k] <= self.max_jump for k in _POSITIVE if k in new):
+            return 'jump'
+        return None
+
+    def _set_parameters(self, physical):
+        self._params = dict(physical)
+        for name, slot in zip(PARAMETER_NAMES, (inverse.R, inverse.L, inverse.KM, inverse.M, inverse.B, inverse.FL)):
+            self._c[slot] = self._params[name]
