@@ -4,8 +4,8 @@ Each move is the 7th-order smooth step p(tau) = 35 tau^4 - 84 tau^5 + 70 tau^6 -
 `transition` seconds: its first three derivatives vanish at both ends, so s, s', s'' and s''' are continuous,
 which the inverse-system law (it uses s''') needs for a bounded voltage.
 
-Defaults suit the Table 1 actuator at 24 V: a 4 mm stroke in 8 ms peaks at 1.1 m/s and 470 m/s^2, about
-16 V through the exact inverse, leaving headroom for feedback and for a plant 50 % heavier or more resistive.
+Defaults suit the Table 1 actuator at 24 V: a 4 mm stroke in 8 ms peaks at 1.1 m/s, 470 m/s^2 and 1.7 A,
+14 V through the exact inverse (17 V with R or m +50 %), leaving headroom for the feedback.
 """
 import dataclasses
 import math

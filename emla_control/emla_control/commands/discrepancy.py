@@ -1,13 +1,85 @@
-"""Find what the model is missing: name the effect, add it, show the gap shrink."""
+"""Find what the model is missing: name the effect, add it, show the gap shrink.
+
+Fits the nominal two-equation model (u = R I + L dI/dt + Km v, m dv/dt = F - B v - Fl) to DATA, compares
+each subsystem's k-step-ahead prediction from its measured inputs with the measurement, ranks the candidate
+effects (coulomb_friction, return_spring, resistance_drift, inductance_saturation, force_constant_variation,
+sensor_delay and any registered with emla_identification.discrepancy.register_candidate) by the share of the
+held-out residual each explains, adds the best one if it is significant, re-identifies and reports the gap
+(NRMSE per signal) before and after; then looks for a second effect.
+
+DATA: CSV (t,voltage,current,position or t,force,position), rosbag2 directory or .mcap file.
+The JSON goes to stdout unless --json is given.
+"""
+import json
+import math
+import os
+import shutil
 import sys
+import tempfile
+from pathlib import Path
+
+from emla_sim.errors import InputError
 
 HELP = 'Find what the model is missing: name the effect, add it, show the gap shrink.'
 
 
 def add_arguments(parser):
-    parser.add_argument('data')
+    parser.add_argument('data', metavar='DATA', help='CSV file, rosbag2 directory or .mcap file')
+    parser.add_argument('--json', metavar='FILE', help='write the result here instead of stdout')
+    parser.add_argument('--report', metavar='DIR',
+                        help='write report.md with PNG figures (and diagnosis.json) into DIR')
+    parser.add_argument('--candidates', metavar='NAMES',
+                        help='comma-separated candidate effects to consider (default: all registered)')
 
 
 def run(args):
-    print('emla: this command arrives with issue #6 and is not available yet', file=sys.stderr)
-    return 3
+    from emla_identification.discrepancy import CANDIDATES, diagnose
+    from emla_sim.recording import load
+
+    names = None
+    if args.candidates:
+        names = [n.strip() for n in args.candidates.split(',') if n.strip()]
+        unknown = [n for n in names if n not in CANDIDATES]
+        if unknown or not names:
+            raise InputError(f'--candidates {args.candidates!r}: unknown effect(s) {", ".join(unknown) or "(none given)"}; '
+                             f'known: {", ".join(CANDIDATES)}')
+    diagnosis = diagnose(load(args.data), names)
+    text = json.dumps(_finite(diagnosis.to_dict()), indent=2) + '\n'
+    if args.report:
+        _write_report(diagnosis, Path(args.report), text)
+    if args.json:
+        temporary = f'{args.json}.partial'
+        try:
+            Path(temporary).write_text(text)
+            os.replace(temporary, args.json)
+        finally:
+            if os.path.exists(temporary):
+                os.remove(temporary)
+    else:
+        sys.stdout.write(text)
+    return 0
+
+
+def _write_report(diagnosis, directory, text):
+    """Build the report in a scratch directory, then move it in with report.md last (present = complete)."""
+    from emla_identification.discrepancy.report import write_report
+
+    directory.mkdir(parents=True, exist_ok=True)
+    scratch = Path(tempfile.mkdtemp(prefix='.report-', dir=directory))
+    try:
+        write_report(diagnosis, scratch, text)
+        for path in sorted(scratch.iterdir(), key=lambda p: p.name == 'report.md'):
+            os.replace(path, directory / path.name)
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+
+
+def _finite(value):
+    """JSON-safe: non-finite floats become null."""
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value

@@ -1,13 +1,92 @@
-"""Print the messages of a topic as YAML."""
+"""Print the messages of a topic as YAML documents, like `ros2 topic echo` (arrays shortened unless -f).
+
+The type and the QoS come from the topic's publishers (reliable / transient local when all of them are).
+Ends after --count messages, or with status 1 when no message came for --timeout seconds.
+"""
+import array
+import importlib
+import os
 import sys
+import time
+
+import numpy as np
+import yaml
 
 HELP = 'Print the messages of a topic as YAML.'
 
 
 def add_arguments(parser):
     parser.add_argument('topic')
+    parser.add_argument('--count', '-n', type=int, default=0, metavar='N',
+                        help='exit after N messages (default: until interrupted)')
+    parser.add_argument('--timeout', type=float, default=10.0, metavar='S',
+                        help='give up when no message came for S seconds (default 10)')
+    parser.add_argument('--truncate-length', '-l', type=int, default=128, metavar='K',
+                        help='show the first K elements of longer arrays and strings (default 128)')
+    parser.add_argument('--full-length', '-f', action='store_true', help='print arrays and strings in full')
+
+
+def message_class(msgtype):
+    """The rclpy class of 'pkg/msg/Name' (or 'pkg/Name')."""
+    package, *_, name = msgtype.split('/')
+    return getattr(importlib.import_module(f'{package}.msg'), name)
+
+
+def to_plain(value, limit=None):
+    """A message as nested dicts/lists of Python scalars; sequences and strings cut after `limit` items."""
+    if hasattr(value, 'get_fields_and_field_types'):
+        return {name: to_plain(getattr(value, name), limit) for name in value.get_fields_and_field_types()}
+    if isinstance(value, (list, tuple, array.array, np.ndarray, bytes)):
+        cut = limit is not None and len(value) > limit
+        items = [to_plain(v, limit) for v in (value[:limit] if cut else value)]
+        return items + ['...'] if cut else items
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, str) and limit is not None and len(value) > limit:
+        return value[:limit] + '...'
+    return value
+
+
+def subscriber_qos(publishers):
+    """A QoS that matches every publisher: reliable / transient local only if all of them are."""
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+    profiles = [p.qos_profile for p in publishers]
+    reliable = all(q.reliability == ReliabilityPolicy.RELIABLE for q in profiles)
+    latched = all(q.durability == DurabilityPolicy.TRANSIENT_LOCAL for q in profiles)
+    return QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
+                      durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE)
 
 
 def run(args):
-    print('emla: this command arrives with issue #4 and is not available yet', file=sys.stderr)
-    return 3
+    from emla_control.launcher import ros_node
+
+    limit = None if args.full_length else args.truncate_length
+    received = []
+    with ros_node('emla_echo') as (node, executor):
+        deadline = time.monotonic() + args.timeout
+        while not (publishers := node.get_publishers_info_by_topic(args.topic)):
+            if time.monotonic() > deadline:
+                print(f'emla echo: no publisher of {args.topic} within {args.timeout:g} s '
+                      f'(ROS_DOMAIN_ID={os.environ.get("ROS_DOMAIN_ID", "0")})', file=sys.stderr)
+                return 1
+            time.sleep(0.05)
+
+        def show(msg):
+            received.append(msg)
+            sys.stdout.write(yaml.safe_dump(to_plain(msg, limit), default_flow_style=False, sort_keys=False))
+            sys.stdout.write('---\n')
+            sys.stdout.flush()
+
+        node.create_subscription(message_class(publishers[0].topic_type), args.topic, show,
+                                 subscriber_qos(publishers))
+        deadline = time.monotonic() + args.timeout
+        while not args.count or len(received) < args.count:
+            seen = len(received)
+            executor.spin_once(timeout_sec=0.1)
+            if len(received) != seen:
+                deadline = time.monotonic() + args.timeout
+            elif time.monotonic() > deadline:
+                print(f'emla echo: no message on {args.topic} for {args.timeout:g} s '
+                      f'({len(received)} received)', file=sys.stderr)
+                return 1
+    return 0

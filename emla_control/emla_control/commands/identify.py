@@ -1,13 +1,168 @@
-"""Identify actuator parameters (grey-box) or an ARX model from a CSV file or a bag."""
+"""Identify actuator parameters (grey-box) or an ARX model from a CSV file or a bag.
+
+Grey-box models (SI units): electrical (R, L, Km from u = R I + L dI/dt + Km v), mechanical (m, B, Fl from
+m dv/dt = F - B v - Fl with F a measured force column, else Km I with Km from the electrical equation) and
+full (all six, Km shared). Velocity is derived from position. Default: full for voltage/current/position
+data, mechanical for force/position data.
+
+ARX: y(t) + a1 y(t-1) + ... = b1 u(t-nk) + ... by RLS from theta = 0, P = 1e6 I. Default input voltage,
+output current, orders 2 2 1 (the exact structure of the coil current's response to the voltage).
+
+The JSON goes to stdout unless --json is given. A bag written by the suite may carry the true parameters
+(custom metadata true_resistance, ...); --plot then draws them next to the estimates.
+"""
+import json
+import math
+import os
 import sys
+from pathlib import Path
+
+import numpy as np
+
+from emla_sim.errors import InputError
 
 HELP = 'Identify actuator parameters (grey-box) or an ARX model from a CSV file or a bag.'
+MODELS = ('electrical', 'mechanical', 'full', 'arx')
+DEFAULT_ORDERS = (2, 2, 1)
+ARX_DEFAULT = ('voltage', 'current')
+PROGRESS_MIN_SAMPLES = 200_000  # smaller inputs finish too fast for a progress bar
 
 
 def add_arguments(parser):
-    parser.add_argument('data')
+    parser.add_argument('data', metavar='DATA', help='CSV file, rosbag2 directory or .mcap file')
+    parser.add_argument('--model', default=None, metavar='MODEL',
+                        help='electrical, mechanical, full or arx (default: full for voltage/current/position '
+                             'data, mechanical for force/position data)')
+    parser.add_argument('--orders', nargs=3, metavar=('NA', 'NB', 'NK'),
+                        help='ARX orders: output lags, input lags, input delay in samples (default 2 2 1)')
+    parser.add_argument('--forgetting', default='1', metavar='LAMBDA',
+                        help='RLS forgetting factor in (0, 1] (default 1: no forgetting)')
+    parser.add_argument('--input', metavar='COL', help='ARX input column (default voltage)')
+    parser.add_argument('--output', metavar='COL', help='ARX output column (default current)')
+    parser.add_argument('--json', metavar='FILE', help='write the result here instead of stdout')
+    parser.add_argument('--plot', metavar='FILE.png', help='PNG of the estimates converging over time')
 
 
 def run(args):
-    print('emla: this command arrives with issue #3 and is not available yet', file=sys.stderr)
-    return 3
+    model, orders, forgetting = _options(args)
+    from emla_sim.recording import load
+    recording = load(args.data)
+    if model == 'arx':
+        result, plot = _arx(recording, orders, forgetting, args)
+    else:
+        result, plot = _greybox(recording, model, forgetting)
+    text = json.dumps(_finite(result), indent=2) + '\n'
+    staged = []  # (temporary, final): renamed only once every output is complete
+    try:
+        if args.plot:
+            from emla_identification.plots import save_convergence_plot
+            staged.append(_stage(args.plot, lambda temporary: save_convergence_plot(temporary, *plot)))
+        if args.json:
+            staged.append(_stage(args.json, lambda temporary: Path(temporary).write_text(text)))
+        for temporary, final in staged:
+            os.replace(temporary, final)
+    finally:
+        for temporary, _ in staged:
+            if os.path.exists(temporary):
+                os.remove(temporary)
+    if not args.json:
+        sys.stdout.write(text)
+    return 0
+
+
+def _options(args):
+    """(model or None, orders or None, forgetting) checked before any data is read."""
+    model = args.model
+    if model is not None and model not in MODELS:
+        raise InputError(f'--model {model!r}: choose one of {", ".join(MODELS)}')
+    if model != 'arx':
+        for flag, value in (('--orders', args.orders), ('--input', args.input), ('--output', args.output)):
+            if value is not None:
+                raise InputError(f'{flag} applies to --model arx only')
+    if (args.input is None) != (args.output is None):
+        raise InputError('--input and --output go together')
+    orders = None
+    if model == 'arx':
+        try:
+            orders = tuple(int(v) for v in args.orders) if args.orders else DEFAULT_ORDERS
+        except ValueError:
+            raise InputError(f'--orders {" ".join(args.orders)}: need three integers NA NB NK') from None
+        if min(orders) < 0 or orders[0] + orders[1] == 0:
+            raise InputError(f'--orders {" ".join(map(str, orders))}: need NA, NB, NK >= 0 and NA + NB >= 1')
+    try:
+        forgetting = float(args.forgetting)
+    except ValueError:
+        forgetting = math.nan
+    if not 0.0 < forgetting <= 1.0:
+        raise InputError(f'--forgetting {args.forgetting}: must be a number in (0, 1]')
+    return model, orders, forgetting
+
+
+def _greybox(recording, model, forgetting):
+    from tqdm import tqdm
+
+    from emla_identification.greybox import identify
+    with tqdm(total=100, unit='%', desc='identify', file=sys.stderr, leave=False,
+              disable=not sys.stderr.isatty() or len(recording) < PROGRESS_MIN_SAMPLES) as bar:
+        result = identify(recording, model, forgetting, progress=lambda done: bar.update(round(100 * done) - bar.n))
+    truth = {}
+    for name in result.parameters:
+        try:
+            truth[name] = float(recording.metadata[f'true_{name}'])
+        except (KeyError, TypeError, ValueError):
+            pass
+    trajectory = result.trajectory
+    title = f'{Path(recording.source).name}: {result.model} model'
+    return result.to_dict(), (trajectory.time, trajectory.parameters, trajectory.std, truth, title)
+
+
+def _arx(recording, orders, forgetting, args):
+    from emla_identification import offline
+    from emla_identification.arx import arx_regressors, identify_arx
+    source = recording.source
+    if args.input is None and not recording.has(*ARX_DEFAULT):
+        raise InputError(f'{source}: no voltage and current columns for the default ARX input and output; '
+                         f'choose them with --input COL --output COL (columns: {", ".join(recording.signals)})')
+    columns = (args.input, args.output) if args.input is not None else ARX_DEFAULT
+    recording.require(*columns)
+    u, y = (recording.signals[c] for c in columns)
+    if len(y) - max(orders[0], orders[2] + orders[1] - 1) <= orders[0] + orders[1]:
+        raise InputError(f'{source}: {len(y)} samples are too few for ARX{orders}')
+    try:
+        model = identify_arx(u, y, *orders, forgetting=forgetting)
+        phi, target = arx_regressors(u, y, *orders)
+        path = offline.trajectory(phi, target, max(1, len(target) // 200), forgetting=forgetting)
+    except ValueError as exc:
+        raise InputError(f'{source}: {exc}') from None
+    na = orders[0]
+    names = [f'a{i}' for i in range(1, na + 1)] + [f'b{i}' for i in range(1, orders[1] + 1)]
+    time = recording.start_time + (path.samples + len(y) - len(target) - 1) * recording.sample_period
+    std = path.std
+    title = f'{Path(source).name}: ARX{orders} from {columns[0]} to {columns[1]}'
+    return model.to_dict(), (time, dict(zip(names, path.theta.T)), dict(zip(names, std.T)), {}, title)
+
+
+def _stage(path, write):
+    """write(temporary) to a hidden name next to `path`; (temporary, path), or InputError and nothing left."""
+    path = Path(path)
+    temporary = path.with_name(f'.{path.name}.{os.getpid()}.tmp')
+    try:
+        write(temporary)
+    except OSError as exc:
+        if temporary.exists():
+            temporary.unlink()
+        raise InputError(f'{path}: cannot write: {exc.strerror or exc}') from None
+    return temporary, path
+
+
+def _finite(value):
+    """The result with non-finite floats as null (JSON has no NaN)."""
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    if isinstance(value, (float, np.floating)):
+        return float(value) if math.isfinite(value) else None
+    if isinstance(value, np.integer):
+        return int(value)
+    return value

@@ -1,13 +1,68 @@
-"""Run the plant, sensor, identifier and controller nodes as a ROS 2 graph and record a bag."""
+"""Run the plant, sensor, identifier and controller nodes as a ROS 2 graph of processes, record a bag.
+
+The graph runs in its own ROS domain (this host only) in simulated time until the plant has run --duration
+and the identifier has published its final estimate; then every process is stopped. Progress (simulated
+time) goes to stderr, the summary JSON to --json or stdout. realtime_factor is simulated time over the wall
+time between the plant's first and last step; wall_time is the whole launch, start-up and stop included.
+"""
+import json
+import signal
 import sys
+import time
+from pathlib import Path
+
+from emla_sim.errors import InputError
 
 HELP = 'Run the plant, sensor, identifier and controller nodes as a ROS 2 graph and record a bag.'
 
 
 def add_arguments(parser):
-    parser.add_argument('scenario', nargs='?', default='default')
+    parser.add_argument('scenario', nargs='?', default='default', help='scenario name (default: default)')
+    parser.add_argument('--duration', type=float, metavar='S', help="simulated time, s (default: the scenario's)")
+    parser.add_argument('--bag', metavar='DIR', help='bag directory to record (default: bags/<scenario>-<time>)')
+    parser.add_argument('--json', metavar='FILE', help='write the summary here (default: stdout)')
+
+
+def default_bag(name):
+    stem = Path('bags') / f'{name}-{time.strftime("%Y%m%d-%H%M%S")}'
+    bag, n = stem, 1
+    while bag.exists():
+        n += 1
+        bag = stem.with_name(f'{stem.name}-{n}')
+    return bag
+
+
+def write_json(data, path):
+    """`data` as JSON to `path` (complete or not at all) or to stdout."""
+    text = json.dumps(data, indent=2) + '\n'
+    if path is None:
+        sys.stdout.write(text)
+        return
+    tmp = Path(f'{path}.tmp')
+    tmp.write_text(text)
+    tmp.replace(path)
+
+
+def _interrupt(signum, frame):
+    raise KeyboardInterrupt
 
 
 def run(args):
-    print('emla: this command arrives with issue #4 and is not available yet', file=sys.stderr)
-    return 3
+    from emla_control import scenarios
+    from emla_control.launcher import LaunchError, launch, scenario_parameters
+
+    scenario = scenarios.get(args.scenario)
+    duration = scenario.duration if args.duration is None else args.duration
+    if not 0 < duration < 1e6:
+        raise InputError(f'--duration must be positive, got {duration}')
+    bag = Path(args.bag) if args.bag else default_bag(scenario.name)
+    signal.signal(signal.SIGTERM, _interrupt)      # stop the graph as on Ctrl-C
+    try:
+        summary = launch(scenario.name, duration, bag, scenario_parameters(scenario))
+    except LaunchError as error:
+        print(f'emla launch: {error}', file=sys.stderr)
+        return 1
+    write_json(summary, args.json)
+    print(f'emla launch: {duration:g} s simulated in {summary["wall_time"]:.1f} s (real-time factor '
+          f'{summary["realtime_factor"]}); bag {bag}', file=sys.stderr)
+    return 0

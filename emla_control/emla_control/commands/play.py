@@ -1,13 +1,155 @@
-"""Republish a recorded bag with its timing (or faster)."""
+"""Republish a bag's SampleFrame and ParameterEstimate topics with their recorded timing, and /clock.
+
+Messages go out in stamp order (simulated time), paced by their stamps scaled by --rate. --rate 0: as fast
+as a live identifier takes them: at most LEAD of bag time ahead of its latest /emla/parameters estimate
+(stamped with the end of the data it has used), so its frame queues never overflow; the bag's own
+/emla/parameters is then not played. Without an identifier, --rate 0 sends everything at once.
+/clock follows the stamps, so nodes with use_sim_time run on the bag's time. At the end /emla/plant/done
+carries the end of the played data, as the plant sends it, so a live identifier publishes its final estimate
+(see emla_sim.nodes.common).
+"""
 import sys
+import time
+from pathlib import Path
+
+from emla_sim.bag import PARAMETER_ESTIMATE, SAMPLE_FRAME, stamp_to_ns, typestore
+from emla_sim.errors import InputError
 
 HELP = 'Republish a recorded bag with its timing (or faster).'
+PLAYED_TYPES = (SAMPLE_FRAME, PARAMETER_ESTIMATE)
+LEAD = 50_000_000        # ns of bag time --rate 0 runs ahead of the identifier (frame queues hold 100 frames)
+STALL_TIMEOUT = 10.0     # s without progress of the identifier before --rate 0 gives up
+ACK_TIMEOUT = 10.0       # s for the subscribers to acknowledge the last messages
 
 
 def add_arguments(parser):
-    parser.add_argument('bag')
+    parser.add_argument('bag', help='rosbag2 directory or .mcap file')
+    parser.add_argument('--rate', type=float, default=1.0, metavar='R',
+                        help='speed factor of the recorded timing; 0 = as fast as subscribers take it (default 1)')
+    parser.add_argument('--topics', nargs='+', metavar='TOPIC',
+                        help='play only these topics (default: every SampleFrame and ParameterEstimate topic)')
+    parser.add_argument('--wait', type=float, default=1.0, metavar='S',
+                        help='wait up to S seconds for a subscriber on every played topic (default 1)')
+
+
+def _open(path):
+    from rosbags.highlevel import AnyReader, AnyReaderError
+    if not Path(path).exists():
+        raise InputError(f'{path}: no such file or directory')
+    reader = AnyReader([Path(path)], default_typestore=typestore())
+    try:
+        reader.open()
+    except (AnyReaderError, OSError, ValueError, KeyError) as exc:
+        raise InputError(f'{path}: unreadable bag: {exc}') from None
+    return reader
+
+
+def _frame_end(connection, stamp, raw):
+    """The end of a SampleFrame's samples (stamp + n * period), in ns."""
+    msg = typestore().deserialize_cdr(raw, connection.msgtype)
+    return stamp + round(len(msg.data) * msg.sample_period * 1e9)
+
+
+def _data_end(last_frames):
+    """The end of the time every played signal covers (as emla_sim.bag.read_bag cuts them): the end of the
+    last voltage interval for a launched graph's bag, i.e. the time the plant reports as done."""
+    return min((_frame_end(*frame) for frame in last_frames.values()), default=None)
+
+
+def _wait_for_subscribers(publishers, seconds):
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline and not all(p.get_subscription_count() for p in publishers.values()):
+        time.sleep(0.02)
+    return sorted(topic for topic, p in publishers.items() if not p.get_subscription_count())
+
+
+class IdentifierPace:
+    """--rate 0 flow control: how far a live identifier has got (its latest estimate's stamp)."""
+
+    def __init__(self, node, executor, start):
+        from emla_msgs.msg import ParameterEstimate
+
+        from emla_sim.nodes import common
+        self.executor = executor
+        self.covered = start
+        node.create_subscription(ParameterEstimate, common.ESTIMATE_TOPIC, self._on_estimate, common.LATCHED_QOS)
+
+    def _on_estimate(self, msg):
+        self.covered = max(self.covered, stamp_to_ns(msg.header.stamp))
+
+    def wait_for(self, stamp):
+        """Spin until the identifier has used the data up to `stamp` - LEAD."""
+        seen, progress_at = self.covered, time.monotonic()
+        while stamp - self.covered > LEAD:
+            self.executor.spin_once(timeout_sec=0.01)
+            if self.covered != seen:
+                seen, progress_at = self.covered, time.monotonic()
+            elif time.monotonic() - progress_at > STALL_TIMEOUT:
+                raise InputError(f'the identifier took no frames for {STALL_TIMEOUT:g} s '
+                                 f'(its last estimate is stamped {self.covered * 1e-9:.4f} s)')
+
+
+def _live_identifier(node):
+    from emla_sim.nodes import common
+    return any(info.node_name != node.get_name() for info in node.get_publishers_info_by_topic(common.ESTIMATE_TOPIC))
 
 
 def run(args):
-    print('emla: this command arrives with issue #4 and is not available yet', file=sys.stderr)
-    return 3
+    from rclpy.duration import Duration
+    from rosgraph_msgs.msg import Clock
+
+    from emla_control.commands.echo import message_class
+    from emla_control.launcher import ros_node
+    from emla_sim.nodes import common
+
+    if args.rate < 0:
+        raise InputError(f'--rate must be >= 0, got {args.rate}')
+    reader = _open(args.bag)
+    try:
+        connections = [c for c in reader.connections if c.msgtype in PLAYED_TYPES
+                       and (not args.topics or c.topic in args.topics)]
+        if not connections:
+            raise InputError(f'{args.bag}: no SampleFrame or ParameterEstimate messages on '
+                             f'{", ".join(args.topics) if args.topics else "any topic"}')
+        with ros_node('emla_play') as (node, executor):
+            publishers = {c.topic: node.create_publisher(
+                message_class(c.msgtype), c.topic,
+                common.FRAME_QOS if c.msgtype == SAMPLE_FRAME else common.LATCHED_QOS) for c in connections}
+            clock = node.create_publisher(Clock, common.CLOCK_TOPIC, common.CLOCK_QOS)
+            done = node.create_publisher(message_class('builtin_interfaces/msg/Time'), common.DONE_TOPIC,
+                                         common.LATCHED_QOS)
+            unheard = _wait_for_subscribers(publishers, args.wait)
+            if unheard:
+                print(f'emla play: no subscriber (yet) of {", ".join(unheard)}', file=sys.stderr)
+            pace = None
+            if args.rate == 0 and _live_identifier(node):
+                pace = IdentifierPace(node, executor, reader.start_time)
+                connections = [c for c in connections if c.topic != common.ESTIMATE_TOPIC]
+                if common.ESTIMATE_TOPIC in publishers:
+                    node.destroy_publisher(publishers.pop(common.ESTIMATE_TOPIC))
+                print('emla play: paced by the live identifier', file=sys.stderr)
+            count, now, last_frames = 0, -1, {}
+            wall = time.monotonic()
+            for connection, stamp, raw in reader.messages(connections=connections):
+                if args.rate > 0:
+                    time.sleep(max(0.0, wall + (stamp - reader.start_time) * 1e-9 / args.rate - time.monotonic()))
+                elif pace:
+                    pace.wait_for(stamp)
+                if stamp > now:
+                    now = stamp
+                    clock.publish(Clock(clock=common.time_msg(now)))
+                publishers[connection.topic].publish(raw)
+                if connection.msgtype == SAMPLE_FRAME:
+                    last_frames[connection.topic] = (connection, stamp, raw)
+                count += 1
+            end = _data_end(last_frames)
+            if end is not None:
+                clock.publish(Clock(clock=common.time_msg(end)))
+                done.publish(common.time_msg(end))
+            for publisher in (*publishers.values(), done):
+                publisher.wait_for_all_acked(Duration(seconds=ACK_TIMEOUT))
+            print(f'emla play: {count} messages on {len(publishers)} topics, {(now - reader.start_time) * 1e-9:.3f} s '
+                  f'of bag time in {time.monotonic() - wall:.2f} s', file=sys.stderr)
+    finally:
+        reader.close()
+    return 0

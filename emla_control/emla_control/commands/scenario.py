@@ -1,13 +1,87 @@
-"""Run a closed-loop adaptive-control comparison (nominal / changed fixed / changed adaptive)."""
-import sys
+"""Run a closed-loop adaptive-control comparison (nominal / changed fixed / changed adaptive).
+
+Scenarios: resistance_rise (R +50 %), mass_rise (m +50 %), thermal_drift (R rising with coil temperature over
+many 40 ms cycles), and default (the Table 1 actuator under adaptive control alone; its one case is
+"adaptive"). Prints {"scenario": NAME, "cases": {case: {rms_tracking_error, max_overshoot, settling_time,
+peak_current}}} (SI units) or writes it with --json; --plot draws the position, tracking error and current of
+each case over the last cycle, as the EMLA paper's Figures 6-7.
+"""
+import json
+import os
+import tempfile
+from pathlib import Path
+
+from emla_sim.errors import InputError
 
 HELP = 'Run a closed-loop adaptive-control comparison (nominal / changed fixed / changed adaptive).'
 
 
 def add_arguments(parser):
-    parser.add_argument('name')
+    parser.add_argument('name', metavar='NAME', help='resistance_rise, mass_rise, thermal_drift or default')
+    parser.add_argument('--json', metavar='FILE', help='write the metrics here instead of printing them')
+    parser.add_argument('--plot', metavar='FILE.png', help='write a plot of the cases')
 
 
 def run(args):
-    print('emla: this command arrives with issue #5 and is not available yet', file=sys.stderr)
-    return 3
+    from emla_control import scenarios  # numba and the identifier load only when a scenario runs
+
+    scenario = scenarios.get(args.name)
+    for path in (args.json, args.plot):
+        if path and not Path(path).resolve().parent.is_dir():
+            raise InputError(f'{path}: its directory does not exist')
+    result = scenarios.run_scenario(scenario)
+    text = json.dumps(result.to_json(), indent=2) + '\n'
+    if args.json:
+        _write_atomically(args.json, lambda tmp: Path(tmp).write_text(text))
+    else:
+        print(text, end='')
+    if args.plot:
+        _write_atomically(args.plot, lambda tmp: plot(result, tmp))
+    return 0
+
+
+def _write_atomically(path, write):
+    """write(temporary path) next to `path`, then rename: no half-written file is ever left under its name."""
+    target = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=target.resolve().parent, prefix=f'.{target.name}.', suffix=target.suffix)
+    os.close(fd)
+    try:
+        write(tmp)
+        os.replace(tmp, target)
+    except OSError as exc:
+        raise InputError(f'{path}: cannot write: {exc}') from None
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+
+
+def plot(result, path):
+    """PNG of the last whole cycle of each case: position with the reference, tracking error, coil current."""
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    reference = result.scenario.reference
+    fig, (ax_x, ax_e, ax_i) = plt.subplots(3, 1, figsize=(8, 8.5), sharex=True)
+    for case, run in result.runs.items():
+        t = run.recording.time
+        end = np.floor((t[-1] + run.recording.sample_period) / reference.period + 1e-9) * reference.period
+        cycle = (t >= end - reference.period) & (t < end)
+        tc = 1e3 * (t[cycle] - (end - reference.period))
+        x = run.truth['position'][cycle]
+        ax_x.plot(tc, 1e3 * x, label=case.replace('_', ' '))
+        ax_e.plot(tc, 1e6 * (x - run.recording.signals['reference'][cycle]), label=case.replace('_', ' '))
+        ax_i.plot(tc, run.truth['current'][cycle], label=case.replace('_', ' '))
+    ax_x.plot(tc, 1e3 * run.recording.signals['reference'][cycle], 'k:', label='reference')
+    ax_x.set_ylabel('position [mm]')
+    ax_e.set_ylabel('position - reference [um]')
+    ax_i.set_ylabel('coil current [A]')
+    ax_i.set_xlabel(f'time within the last {1e3 * reference.period:g} ms cycle [ms]')
+    for ax in (ax_x, ax_e, ax_i):
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc='upper right', fontsize=8)
+    fig.suptitle(f'{result.scenario.name}: {result.scenario.description}', fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110, format='png')
+    plt.close(fig)

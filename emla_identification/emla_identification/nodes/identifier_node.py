@@ -1,10 +1,96 @@
-"""The identifier node (arrives with issue #4)."""
+"""The identifier node: online grey-box identification (emla_identification.online) of the measured frames.
+
+Publishes /emla/parameters (latched) at every multiple of `publish_period` that ends a control period,
+stamped with the end of the data used, and a final estimate at the end time /emla/plant/done announces
+(see emla_sim.nodes.common); /diagnostics with each estimate.
+"""
+import math
 import sys
 
+import numpy as np
+from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from emla_msgs.msg import ParameterEstimate
+from std_msgs.msg import Header
 
-def main():
-    print('identifier: this node arrives with issue #4 and is not available yet', file=sys.stderr)
-    return 3
+from emla_identification.greybox import MODEL_PARAMETERS
+from emla_identification.online import OnlineIdentifier
+from emla_sim.errors import InputError
+from emla_sim.nodes import common
+
+SPECS = [
+    common.Spec('sample_period', 1e-4, 'sample period Ts of the frames, s', 1e-6, 1e-2),
+    common.Spec('model', 'full', f'grey-box model, one of {sorted(MODEL_PARAMETERS)}'),
+    common.Spec('forgetting', 1.0, 'RLS forgetting factor lambda (1 = no forgetting), 1', 0.5, 1.0),
+    common.Spec('memory_time', 0.0,
+                'memory time constant tau instead of a forgetting factor, lambda = 1 - Ts/tau (0 = unused), s',
+                0.0, 1e6),
+    common.Spec('publish_period', 0.01, 'publish an estimate at multiples of this simulated time, s', 1e-6, 1e6),
+]
+
+
+def warm_up(identifier):
+    """Run the estimator's compiled kernels once (about 0.5 s the first time), before the node subscribes:
+    the plant starts only then, so the first frames do not pile up (a non-adaptive loop does not wait)."""
+    ramp = np.linspace(0.0, 1.0, 32)
+    identifier.update(ramp, ramp, ramp)
+    identifier.estimate()
+
+
+class IdentifierNode(common.EmlaNode):
+    NAME = 'identifier'
+
+    def __init__(self):
+        super().__init__()
+        p = common.declare(self, SPECS)
+        if p.model not in MODEL_PARAMETERS:
+            raise InputError(f'model {p.model!r} is not one of {sorted(MODEL_PARAMETERS)}')
+        settings = dict(sample_period=p.sample_period, model=p.model, forgetting=p.forgetting,
+                        memory_time=p.memory_time or None)
+        self.identifier = OnlineIdentifier(**settings)
+        warm_up(OnlineIdentifier(**settings))
+        self.step = common.to_ns(p.sample_period)
+        self.publish_step = common.to_ns(p.publish_period)
+        self.covered = 0  # ns: the estimator has used every voltage interval before this time
+        self.published = None  # stamp of the latest estimate
+        self.end = None  # end of the run, from /emla/plant/done
+        self.estimates = self.create_publisher(ParameterEstimate, common.ESTIMATE_TOPIC, common.LATCHED_QOS)
+        self.diagnostics = self.create_publisher(DiagnosticArray, common.DIAGNOSTICS_TOPIC, common.DIAGNOSTICS_QOS)
+        self.samples = common.AlignedSamples(self, common.MEASURED_TOPICS, self.on_samples, p.sample_period)
+        self.create_subscription(Time, common.DONE_TOPIC, self.on_done, common.LATCHED_QOS)
+
+    def on_samples(self, start, samples):
+        self.identifier.update(samples['voltage'], samples['current'], samples['position'])
+        self.covered = start + len(samples['voltage']) * self.step
+        if self.covered % self.publish_step == 0 or self.covered == self.end:
+            self.publish()
+
+    def on_done(self, msg):
+        self.end = common.stamp_ns(msg)
+        if self.covered == self.end and self.published != self.end:
+            self.publish()
+
+    def publish(self):
+        values, std = self.identifier.estimate()
+        names, covariance = self.identifier.covariance()
+        stamp = common.time_msg(self.covered)
+        self.estimates.publish(common.estimate_message(self.covered, values, std, (names, covariance),
+                                                       self.identifier.samples, self.identifier.residual_rms))
+        self.published = self.covered
+        identified = sum(math.isfinite(v) for v in values.values())
+        status = DiagnosticStatus(
+            level=DiagnosticStatus.OK if identified == len(values) else DiagnosticStatus.WARN,
+            name='emla/identifier', hardware_id='emla',
+            message=f'{identified} of {len(values)} parameters identified', values=[
+                KeyValue(key='excitation', value=f'{identified / len(values):g}'),
+                KeyValue(key='covariance_trace', value=f'{np.trace(covariance):g}'),
+                KeyValue(key='samples', value=str(self.identifier.samples)),
+                KeyValue(key='residual_rms', value=f'{self.identifier.residual_rms:g}')])
+        self.diagnostics.publish(DiagnosticArray(header=Header(stamp=stamp), status=[status]))
+
+
+def main(args=None):
+    return common.run(IdentifierNode, args)
 
 
 if __name__ == '__main__':

@@ -1,46 +1,55 @@
-"""What the suite's four nodes share: the graph (topics, QoS), the lockstep, frames <-> numpy, parameters, spinning.
+"""What the suite's nodes share: the graph (topics, QoS), the lockstep, frames <-> numpy, parameters, spinning.
 
-Graph (namespace /emla, SI units; every SampleFrame carries the samples of one control period, stamped with
-the simulated time of its first sample):
+Graph (namespace /emla, SI units). A SampleFrame holds consecutive samples of one signal, stamped with the
+simulated time of its first sample; the frames of control period k (Tc = n Ts, k = 0, 1, ...) are:
+  voltage frames (/emla/plant/voltage, /emla/voltage, /emla/voltage_command, /emla/reference): the n values
+    over [k Tc + j Ts, k Tc + (j+1) Ts), j = 0..n-1, stamp k Tc;
+  state frames (/emla/plant/{current,position}, /emla/{current,position}): the n samples the period's voltage
+    intervals end on, at k Tc + (j+1) Ts, stamp k Tc + Ts; so the state at (k+1) Tc, the one the command for
+    period k+1 must start from, is the last sample of period k's frame. Before period 0 the plant publishes
+    one state frame of a single sample: the state at t = 0, stamp 0.
+Aligned by stamp (as emla_sim.bag.read_bag does), the state samples at t_j pair with the voltage held over
+[t_j, t_j + Ts), the Recording convention; `AlignedSamples` does this for a node.
 
-| topic                           | type                             | publisher  | QoS                                  |
-|---------------------------------|----------------------------------|------------|--------------------------------------|
-| /emla/plant/{voltage,current,position} | emla_msgs/SampleFrame     | plant      | FRAME: reliable, transient local, 100 |
-| /emla/plant/parameters          | emla_msgs/ParameterEstimate      | plant      | LATCHED: reliable, transient local, 1 |
-| /emla/plant/done                | builtin_interfaces/Time          | plant      | LATCHED                              |
-| /clock                          | rosgraph_msgs/Clock              | plant      | CLOCK: best effort, volatile, 1      |
-| /emla/{voltage,current,position}| emla_msgs/SampleFrame            | sensor     | FRAME                                |
-| /emla/voltage_command           | emla_msgs/SampleFrame            | controller | FRAME                                |
-| /emla/reference                 | emla_msgs/SampleFrame            | controller | FRAME                                |
-| /emla/parameters                | emla_msgs/ParameterEstimate      | identifier | LATCHED                              |
-| /diagnostics                    | diagnostic_msgs/DiagnosticArray  | identifier | reliable, volatile, 10               |
+| topic                                  | type                            | publisher  | QoS     |
+|----------------------------------------|---------------------------------|------------|---------|
+| /emla/plant/{voltage,current,position} | emla_msgs/SampleFrame (truth)   | plant      | FRAME   |
+| /emla/plant/parameters                 | emla_msgs/ParameterEstimate     | plant      | LATCHED |
+| /emla/plant/done                       | builtin_interfaces/Time         | plant      | LATCHED |
+| /clock                                 | rosgraph_msgs/Clock             | plant      | CLOCK   |
+| /emla/{voltage,current,position}       | emla_msgs/SampleFrame (measured)| sensor     | FRAME   |
+| /emla/voltage_command, /emla/reference | emla_msgs/SampleFrame           | controller | FRAME   |
+| /emla/parameters                       | emla_msgs/ParameterEstimate     | identifier | LATCHED |
+| /diagnostics                           | diagnostic_msgs/DiagnosticArray | identifier | DIAGNOSTICS |
+FRAME: reliable, transient local, keep last 1000 (1 s of the default frames: a reader outside the loop, such
+as the non-adaptive identifier or a recorder, may lag that much); LATCHED: reliable, transient local, keep last 1;
+CLOCK: best effort, volatile, keep last 1 (as rclpy's time source subscribes); DIAGNOSTICS: reliable, 10.
 
-Deterministic lockstep (control period Tc = n sample periods Ts, period k covers [k Tc, (k+1) Tc)):
-1. The controller publishes /emla/voltage_command for period 0 at start (from the reference and the
-   initial position), then command k+1 once it has the measured frames of period k (and, when adapting,
-   the estimate due at (k+1) Tc, see 4).
-2. The plant advances period k only when it holds command k (stamp k Tc, n samples) and, before period 0,
-   once /emla/position has `start_subscribers` subscriptions (controller, identifier, recorders: whoever
-   must see every frame). It publishes /emla/plant/* frames of period k: the applied (clipped) voltage and
-   the true current and position at k Tc + j Ts, j = 0..n-1 (the state at the start of each ZOH interval,
-   aligned with the voltage held over it), then /clock = (k+1) Tc.
-3. The sensor turns each complete set of plant frames into /emla/* frames (same stamp; the voltage passes
-   unchanged, the current and position are measured).
-4. The identifier feeds every measured sample to the estimator in order and publishes /emla/parameters after
-   every `publish_period` (a multiple of Tc), stamped with the END of the data it covers: the estimate stamped
-   t has used every sample before t. An adaptive controller with `adaptation_period` (a multiple of the
-   identifier's publish_period) waits, before computing the command for the period starting at t = j *
-   adaptation_period, for exactly the estimate stamped t and takes it. Lag: the command applied from t on
-   uses the samples up to t - Ts (one control period of computation delay, as on a DSP).
-Every message crosses a reliable, in-order topic and each node computes from its inputs alone, so the
-samples of a run do not depend on scheduling. Frames are transient local (depth 100) so a node that matches a
-publisher late (start-up) still gets every frame.
+Deterministic lockstep in simulated time:
+1. Start: once /emla/position has `start_subscribers` subscriptions (the plant's parameter: controller,
+   identifier, recorders: whoever must see every frame), the plant publishes the state at t = 0.
+2. Sensor: measures each state frame (pairs /emla/plant/current and /position by stamp) and publishes it with
+   the same stamp; voltage frames pass unchanged to /emla/voltage.
+3. Controller: from the last sample of each measured state frame (time t = stamp + (size - 1) Ts) it computes
+   the command for the period starting at t (n equal values, stamp t) and the reference it tracks.
+4. Plant: advances period k only with the command stamped k Tc in hand; publishes its voltage and state
+   frames, then /clock = (k+1) Tc.
+5. Identifier: feeds the aligned samples in time order to the estimator and publishes /emla/parameters at
+   every multiple of `publish_period` that ends a period, stamped with the END of the data it covers: the
+   estimate stamped t has used every voltage interval before t. An adaptive controller (its
+   `adaptation_period` is a multiple of that publish_period) waits before the command for each period
+   starting at t = j adaptation_period (j >= 1) for exactly the estimate stamped t. Lag: the model changes
+   at t with the data up to t, like the in-process loop (emla_control.loop).
+Every message travels on a reliable, in-order topic and each node computes from its inputs alone, so a run's
+samples do not depend on scheduling. Frames are transient local so that a reader that matches a publisher
+late (start-up) still gets them; nothing is in flight in the loop beyond one period.
 
 Done signal: with duration > 0 the plant advances round(duration / Tc) periods, publishes the final frames,
-the final true parameters and /emla/plant/done (builtin_interfaces/Time = the end time, latched), waits
-(bounded) until every reader acknowledged its messages, and exits 0. The identifier publishes its final
-estimate, stamped with that end time, once it has used every sample before it; a launcher waits for the
-/emla/parameters message with that stamp, then stops the other nodes with SIGTERM.
+the final true parameters and /emla/plant/done (builtin_interfaces/Time: the end time, latched), waits
+(bounded, 5 s) until every reader acknowledged its messages, and exits 0. The identifier then publishes its
+final estimate stamped with that end time (if that was not a publishing instant anyway): the last
+/emla/parameters message covers every sample the plant produced. A launcher waits for it, then stops the
+other nodes with SIGTERM.
 
 Each node: parameters declared read-only with descriptors (range, units in the description), defaults in the
 package's config/<node>.yaml; SIGINT/SIGTERM end it cleanly with exit status 0; bad parameters end it with one
@@ -80,7 +89,7 @@ START_TOPIC = MEASURED_TOPICS['position']  # the plant's start barrier counts th
 CLOCK_TOPIC = '/clock'
 DIAGNOSTICS_TOPIC = '/diagnostics'
 
-FRAME_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,
+FRAME_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE,
                        durability=DurabilityPolicy.TRANSIENT_LOCAL)
 LATCHED_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -128,23 +137,76 @@ def frame_data(msg):
 
 
 class FrameSets:
-    """Subscribes to several frame topics and calls on_set(stamp_ns, sample_period, {name: array}) once
-    every topic has delivered its frame with that stamp (in stamp order, as the topics are in order)."""
+    """Subscribes to frame topics {name: topic}; calls on_set(stamp_ns, sample_period, {name: array}) once
+    every topic has delivered its frame with that stamp (in stamp order: each topic is in order). With
+    `sample_period` given, frames of another sample period are dropped; drops and gaps (lost frames: the
+    run is no longer deterministic) are logged as errors."""
 
-    def __init__(self, node, topics, on_set):
-        self._names = tuple(topics)
+    def __init__(self, node, topics, on_set, sample_period=None):
+        self._log = node.get_logger()
         self._on_set = on_set
+        self._step = None if sample_period is None else to_ns(sample_period)
+        self._next = dict.fromkeys(topics)  # name -> the stamp its next frame must have
         self._pending = {}
         for name, topic in topics.items():
             node.create_subscription(SampleFrame, topic, lambda msg, name=name: self._receive(name, msg), FRAME_QOS)
 
     def _receive(self, name, msg):
+        step = to_ns(msg.sample_period)
+        if self._step not in (None, step):
+            self._log.error(f'dropped {name} frames of sample period {msg.sample_period} s (the sample_period '
+                            f'parameter is {self._step * 1e-9} s)', throttle_duration_sec=5.0)
+            return
         stamp = stamp_ns(msg.header.stamp)
+        if self._next[name] not in (None, stamp):
+            self._log.error(f'{name} frames missing from {self._next[name]} to {stamp} ns')
+        self._next[name] = stamp + len(msg.data) * step
         frames = self._pending.setdefault(stamp, {})
         frames[name] = frame_data(msg)
-        if len(frames) == len(self._names):
+        if len(frames) == len(self._next):
             del self._pending[stamp]
             self._on_set(stamp, msg.sample_period, frames)
+
+
+class AlignedSamples:
+    """Subscribes to a voltage and two state topics ({'voltage', 'current', 'position'}: topic) and calls
+    on_samples(start_ns, {name: array}) per voltage frame, with the state samples taken where each voltage
+    interval starts (the held last sample of the previous state frame, then all but the last of this one):
+    the Recording convention, the estimator's input."""
+
+    def __init__(self, node, topics, on_samples, sample_period):
+        self._on_samples = on_samples
+        self._step = to_ns(sample_period)
+        self._voltages = {}  # stamp -> frame
+        self._states = {}  # stamp -> {'current': frame, 'position': frame}
+        self._held = None  # (time_ns, {'current': value, 'position': value}), the last state sample
+        self._subscriptions = (
+            FrameSets(node, {'voltage': topics['voltage']}, self._on_voltage, sample_period),
+            FrameSets(node, {name: topics[name] for name in ('current', 'position')}, self._on_states, sample_period))
+
+    def _on_voltage(self, stamp, sample_period, frames):
+        self._voltages[stamp] = frames['voltage']
+        self._flush()
+
+    def _on_states(self, stamp, sample_period, frames):
+        if self._held is None:  # the first state frame (the state at t = 0) only starts the pairing
+            self._hold(stamp + (len(frames['current']) - 1) * self._step, frames)
+        else:
+            self._states[stamp] = frames
+        self._flush()
+
+    def _hold(self, time, frames):
+        self._held = (time, {name: frame[-1:] for name, frame in frames.items()})
+
+    def _flush(self):
+        while self._held is not None:
+            start, held = self._held
+            if start not in self._voltages or start + self._step not in self._states:
+                return
+            voltage, states = self._voltages.pop(start), self._states.pop(start + self._step)
+            samples = {name: np.concatenate((held[name], frame[:-1])) for name, frame in states.items()}
+            self._hold(start + len(voltage) * self._step, states)
+            self._on_samples(start, dict(samples, voltage=voltage))
 
 
 def frame_publishers(node, topics):
@@ -159,14 +221,18 @@ def publish_frames(publishers, stamp, sample_period, frames):
 # ---- parameter estimates ----
 
 def estimate_message(stamp, values, std=None, covariance=None, samples=0, residual_rms=float('nan')):
-    """A ParameterEstimate; names missing from `values`/`std` are NaN, a missing covariance is NaN."""
+    """A ParameterEstimate stamped `stamp` (ns); covariance = (names, matrix). What is not given is NaN."""
     msg = ParameterEstimate(samples_used=int(samples), residual_rms=float(residual_rms))
     msg.header.stamp = time_msg(stamp)
     for name in PARAMETER_NAMES:
         setattr(msg, name, float(values.get(name, float('nan'))))
     std = std or {}
     msg.std = [float(std.get(name, float('nan'))) for name in PARAMETER_NAMES]
-    msg.covariance = np.full(36, np.nan) if covariance is None else np.asarray(covariance, float).ravel()
+    full = np.full((len(PARAMETER_NAMES),) * 2, np.nan)
+    if covariance is not None:
+        index = [PARAMETER_NAMES.index(name) for name in covariance[0]]
+        full[np.ix_(index, index)] = covariance[1]
+    msg.covariance = full.ravel()
     return msg
 
 
@@ -205,6 +271,9 @@ _RANGES = {'resistance': (1e-3, 1e3), 'inductance': (1e-6, 10.0), 'emf_constant'
            'mass': (1e-4, 1e3), 'damping': (0.0, 1e4), 'load_force': (-1e4, 1e4), 'supply_voltage': (0.1, 1e4)}
 
 
+ACTUATOR_FIELDS = tuple(_UNITS)
+
+
 def actuator_specs(what):
     """Specs of the actuator parameters (Table 1 defaults), e.g. what='true' or 'nominal (initial model)'."""
     return [Spec(name, getattr(TABLE1, name), f'{what} {name.replace("_", " ")}, {_UNITS[name]}', *_RANGES[name])
@@ -222,8 +291,20 @@ def declare(node, specs):
 
 # ---- running ----
 
+class EmlaNode(Node):
+    """A node of the suite (namespace /emla); it ends the process when `finished` becomes true."""
+
+    NAME = ''
+
+    def __init__(self):
+        super().__init__(self.NAME, namespace='/emla')
+        self.finished = False
+
+
 def run(node_class, args=None):
-    """Run one node until it finishes or SIGINT/SIGTERM arrives; the process exit status."""
+    """Run one node (an EmlaNode class) until it finishes or SIGINT/SIGTERM arrives; the exit status.
+
+    args: the command line with ROS arguments (default sys.argv)."""
     stopping = []
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     for signum in (signal.SIGINT, signal.SIGTERM):
@@ -244,18 +325,3 @@ def run(node_class, args=None):
         node.destroy_node()
         rclpy.try_shutdown()
     return 0
-
-
-class EmlaNode(Node):
-    """A node of the suite (namespace /emla); it ends the process when `finished` becomes true."""
-
-    NAME = ''
-
-    def __init__(self):
-        super().__init__(self.NAME, namespace='/emla')
-        self.finished = False
-
-
-def main(node_class):
-    """A console_scripts entry point for `node_class`: its exit status (args from sys.argv)."""
-    return run(node_class, sys.argv)

@@ -1,10 +1,156 @@
-"""The plant node (arrives with issue #4)."""
+"""The plant node: the simulated actuator, one control period per voltage command (lockstep, see common).
+
+Effects by name (`effects`), tuned by `effect_parameters` entries 'effect.field=value'; timed parameter
+changes from the equally long arrays change_times / change_parameters / change_factors.
+"""
 import sys
+import time
+
+from builtin_interfaces.msg import Time
+from emla_msgs.msg import ParameterEstimate, SampleFrame
+from rclpy.duration import Duration
+from rclpy.parameter import Parameter
+from rosgraph_msgs.msg import Clock
+
+from emla_sim.effects import EFFECTS, ParameterChange, make_effect
+from emla_sim.errors import InputError
+from emla_sim.nodes import common
+from emla_sim.parameters import PARAMETER_NAMES, ActuatorParameters
+from emla_sim.plant import Plant
+
+SPECS = [
+    common.Spec('sample_period', 1e-4, 'sample period Ts, s', 1e-6, 1e-2),
+    common.Spec('control_period', 1e-3, 'control period Tc (a whole multiple of Ts; samples per frame = Tc/Ts), s',
+                1e-6, 1.0),
+    common.Spec('duration', 1.0, 'simulated time to run, then publish done and exit; 0 = until stopped, s',
+                0.0, 1e6),
+    common.Spec('initial_position', 0.0, 'position at t = 0 (at rest, no current), m', -1.0, 1.0),
+    *common.actuator_specs('true'),
+    common.Spec('effects', Parameter.Type.STRING_ARRAY, f'effects by name, of {sorted(EFFECTS)}'),
+    common.Spec('effect_parameters', Parameter.Type.STRING_ARRAY,
+                "settings of those effects, 'effect.field=value' (SI units, see emla_sim.effects)"),
+    common.Spec('change_times', Parameter.Type.DOUBLE_ARRAY, 'times of step parameter changes, s'),
+    common.Spec('change_parameters', Parameter.Type.STRING_ARRAY, f'parameter each change scales, of {PARAMETER_NAMES}'),
+    common.Spec('change_factors', Parameter.Type.DOUBLE_ARRAY, 'factor each change multiplies it by, 1'),
+    common.Spec('parameters_period', 0.01,
+                'publish the true parameters at multiples of this (and after each change), s', 1e-6, 1e6),
+    common.Spec('start_subscribers', 2, 'start once /emla/position has this many subscriptions, 1', 0, 1000),
+]
+ACK_TIMEOUT = 5.0  # s, for the readers to acknowledge the final messages
 
 
-def main():
-    print('plant: this node arrives with issue #4 and is not available yet', file=sys.stderr)
-    return 3
+def effects_from(names, settings):
+    fields = {name: {} for name in names}
+    for setting in settings:
+        key, _, value = setting.partition('=')
+        effect, _, field = key.strip().partition('.')
+        if effect not in fields or not field or not value:
+            raise InputError(f"effect_parameters: {setting!r} is not 'effect.field=value' for an effect in {names}")
+        try:
+            fields[effect][field] = float(value)
+        except ValueError:
+            raise InputError(f'effect_parameters: {setting!r}: {value!r} is not a number') from None
+    return [make_effect(name, **fields[name]) for name in names]
+
+
+def changes_from(times, parameters, factors):
+    if not len(times) == len(parameters) == len(factors):
+        raise InputError('change_times, change_parameters and change_factors must have the same length')
+    return [ParameterChange(t, name, factor) for t, name, factor in zip(times, parameters, factors)]
+
+
+class PlantNode(common.EmlaNode):
+    NAME = 'plant'
+
+    def __init__(self):
+        super().__init__()
+        p = common.declare(self, SPECS)
+        self.samples = common.period_samples(p.sample_period, p.control_period)
+        self.step = common.to_ns(p.sample_period)
+        self.periods = round(p.duration / p.control_period) if p.duration else None
+        if self.periods == 0:
+            raise InputError(f'duration ({p.duration} s) is shorter than one control period')
+        self.start_subscribers = p.start_subscribers
+        self.changes = changes_from(p.change_times, p.change_parameters, p.change_factors)
+        params = ActuatorParameters(**{name: getattr(p, name) for name in common.ACTUATOR_FIELDS})
+        self.supply = params.supply_voltage
+        self.plant = Plant(params,
+                           effects_from(p.effects, p.effect_parameters), self.changes,
+                           initial_state=(0.0, p.initial_position, 0.0))
+        self.parameters_step = common.to_ns(p.parameters_period)
+        self.sample_period = p.sample_period
+        self.period = 0
+        self.commands = {}  # stamp -> voltages
+        self.frames = common.frame_publishers(self, common.PLANT_TOPICS)
+        self.truth = self.create_publisher(ParameterEstimate, common.TRUE_PARAMETERS_TOPIC, common.LATCHED_QOS)
+        self.done = self.create_publisher(Time, common.DONE_TOPIC, common.LATCHED_QOS)
+        self.clock = self.create_publisher(Clock, common.CLOCK_TOPIC, common.CLOCK_QOS)
+        self.create_subscription(SampleFrame, common.COMMAND_TOPIC, self.on_command, common.FRAME_QOS)
+        self.barrier = self.create_timer(0.02, self.try_start)
+        self.get_logger().info(f'waiting for {self.start_subscribers} subscription(s) of {common.START_TOPIC}')
+
+    @property
+    def now(self):
+        return self.period * self.samples * self.step
+
+    def try_start(self):
+        if self.count_subscribers(common.START_TOPIC) < self.start_subscribers:
+            return
+        self.barrier.cancel()
+        self.get_logger().info('started')
+        state = {'current': [self.plant.current], 'position': [self.plant.position]}
+        for name in state:
+            self.frames[name].publish(common.frame_message(0, self.sample_period, state[name]))
+        self.publish_truth()
+        self.clock.publish(Clock(clock=common.time_msg(0)))
+        self.advance()
+
+    def on_command(self, msg):
+        stamp = common.stamp_ns(msg.header.stamp)
+        if stamp < self.now or len(msg.data) != self.samples:
+            self.get_logger().error(f'ignored a voltage command stamped {stamp} ns with {len(msg.data)} samples '
+                                    f'(expected {self.samples} from {self.now} ns on)')
+            return
+        self.commands[stamp] = common.frame_data(msg)
+        if self.barrier.is_canceled():
+            self.advance()
+
+    def advance(self):
+        while self.now in self.commands and not self.finished:
+            start = self.now
+            if self.period == 0:
+                self.wall_start = time.monotonic()
+            voltages = self.commands.pop(start).clip(-self.supply, self.supply)  # as the plant applies them
+            states = [self.plant.step(u, self.sample_period) for u in voltages.tolist()]  # (I, x, v) at the ends
+            for c, name in enumerate(('current', 'position')):
+                self.frames[name].publish(common.frame_message(start + self.step, self.sample_period,
+                                                               [state[c] for state in states]))
+            self.frames['voltage'].publish(common.frame_message(start, self.sample_period, voltages))
+            self.period += 1
+            self.clock.publish(Clock(clock=common.time_msg(self.now)))
+            changed = any(start * 1e-9 < c.time <= self.now * 1e-9 for c in self.changes)
+            if changed or self.now % self.parameters_step == 0 or self.period == self.periods:
+                self.publish_truth()
+            if self.period == self.periods:
+                self.finish()
+
+    def publish_truth(self):
+        self.truth.publish(common.estimate_message(self.now, self.plant.true_parameters().physical(),
+                                                   std=dict.fromkeys(PARAMETER_NAMES, 0.0)))
+
+    def finish(self):
+        self.done.publish(common.time_msg(self.now))
+        deadline = time.monotonic() + ACK_TIMEOUT
+        for publisher in (*self.frames.values(), self.truth, self.done):
+            publisher.wait_for_all_acked(Duration(seconds=max(0.0, deadline - time.monotonic())))
+        wall = time.monotonic() - self.wall_start
+        self.get_logger().info(f'done at t = {self.now * 1e-9:g} s; from the first command on: wall time '
+                               f'{wall:.3f} s, realtime factor {self.now * 1e-9 / wall:.3f}')
+        self.finished = True
+
+
+def main(args=None):
+    return common.run(PlantNode, args)
 
 
 if __name__ == '__main__':

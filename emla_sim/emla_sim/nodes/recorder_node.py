@@ -5,117 +5,132 @@ bag. Splits of `split_size` bytes are finished and listed in metadata.yaml as th
 at most the split being written. SIGINT/SIGTERM: keep receiving until the topics are quiet for
 `drain_time`, then finish the split and exit 0. Custom data of the bag: `scenario` and `true_<name>` (the
 latest /emla/plant/parameters values, as strings).
+
+With `hold_start` (as `emla launch` runs it) the recorder subscribes to the plant's start topic
+(/emla/position, see common) only once each of its other topics has a matched publisher: the lockstep plant
+cannot start before the recorder hears every node, so the bag begins at t = 0.
 """
 import signal
 import struct
 import sys
-import threading
 import time
 
 import rclpy
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from builtin_interfaces.msg import Time
+from emla_msgs.msg import ParameterEstimate, SampleFrame
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from rclpy.signals import SignalHandlerOptions
 
-from emla_sim.bag import ESTIMATE_FIELDS, PARAMETER_ESTIMATE, SAMPLE_FRAME, TRUTH_TOPIC, BagWriter
+from emla_sim.bag import BagWriter
 from emla_sim.errors import InputError
+from emla_sim.nodes import common
+from emla_sim.parameters import PARAMETER_NAMES
 
-# Recorded topics: name -> (type). All are published reliably; 1 ms frames at 10 kHz are 1000 messages/s
-# per topic, so the queue holds seconds of them while the writer finishes a split.
+# Recorded topics -> message class. Every one is published reliable and transient local (see common).
 TOPICS = {
-    '/emla/plant/voltage': SAMPLE_FRAME,
-    '/emla/plant/current': SAMPLE_FRAME,
-    '/emla/plant/position': SAMPLE_FRAME,
-    '/emla/plant/parameters': PARAMETER_ESTIMATE,
-    '/emla/voltage': SAMPLE_FRAME,
-    '/emla/current': SAMPLE_FRAME,
-    '/emla/position': SAMPLE_FRAME,
-    '/emla/reference': SAMPLE_FRAME,
-    '/emla/voltage_command': SAMPLE_FRAME,
-    '/emla/parameters': PARAMETER_ESTIMATE,
+    **{topic: SampleFrame for topic in common.PLANT_TOPICS.values()},
+    **{topic: SampleFrame for topic in common.MEASURED_TOPICS.values()},
+    common.COMMAND_TOPIC: SampleFrame,
+    common.REFERENCE_TOPIC: SampleFrame,
+    common.TRUE_PARAMETERS_TOPIC: ParameterEstimate,
+    common.ESTIMATE_TOPIC: ParameterEstimate,
+    common.DONE_TOPIC: Time,
 }
-LATCHED = {'/emla/parameters', '/emla/plant/parameters'}   # published transient_local
-QUEUE_DEPTH = 10000
+# Unbounded queues: the writer may fall behind 1 ms frames (8000 messages/s at real time) for a while.
+QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE,
+                 durability=DurabilityPolicy.TRANSIENT_LOCAL)
+SPECS = [
+    common.Spec('bag', '', 'output rosbag2 directory (must not exist or be empty)'),
+    common.Spec('scenario', '', 'scenario name stored in the bag custom data'),
+    common.Spec('split_size', 256 * 1024, 'bytes of messages per MCAP split; a SIGKILL loses at most one, B',
+                4096, 2**30),
+    common.Spec('hold_start', False, 'join the plant start barrier only once every other topic has a publisher'),
+    common.Spec('drain_time', 0.3, 'after SIGINT/SIGTERM, record until no message came for this long, s',
+                0.0, 10.0),
+]
 
 
-def message_class(msgtype):
-    package, _, name = msgtype.split('/')
-    return getattr(__import__(f'{package}.msg', fromlist=[name]), name)
+def msgtype(message_class):
+    """'pkg/msg/Name' of a generated message class."""
+    return f'{message_class.__module__.split(".")[0]}/msg/{message_class.__name__}'
 
 
 def header_stamp_ns(cdr):
-    """header.stamp of a serialised message that starts with a std_msgs/Header (after the 4-byte CDR header)."""
+    """The stamp a serialised message starts with (std_msgs/Header or builtin_interfaces/Time), in ns."""
     sec, nanosec = struct.unpack_from('<iI' if cdr[1] == 1 else '>iI', cdr, 4)
     return sec * 1_000_000_000 + nanosec
 
 
 class Recorder(Node):
     def __init__(self):
-        super().__init__('recorder')
-        bag = self.declare_parameter('bag', '', ParameterDescriptor(
-            description='output rosbag2 directory (must not exist or be empty)', read_only=True)).value
-        scenario = self.declare_parameter('scenario', '', ParameterDescriptor(
-            description='scenario name stored in the bag custom data', read_only=True)).value
-        split_size = self.declare_parameter('split_size', 256 * 1024, ParameterDescriptor(
-            description='bytes of messages per MCAP split; a SIGKILL loses at most one split (B)', read_only=True,
-            integer_range=[IntegerRange(from_value=4096, to_value=1 << 30, step=1)])).value
-        self.drain_time = self.declare_parameter('drain_time', 0.3, ParameterDescriptor(
-            description='after a stop signal, record until no message arrived for this long (s)', read_only=True,
-            floating_point_range=[FloatingPointRange(from_value=0.0, to_value=10.0, step=0.0)])).value
-        if not bag:
-            raise InputError('recorder: parameter `bag` (output directory) is required')
-        self.bag = BagWriter(bag, split_size=split_size, custom_data={'scenario': scenario})
+        super().__init__('recorder', namespace='/emla')
+        self.config = common.declare(self, SPECS)
+        if not self.config.bag:
+            raise InputError('parameter `bag` (output directory) is required')
+        self.bag = BagWriter(self.config.bag, split_size=self.config.split_size,
+                             custom_data={'scenario': self.config.scenario})
         self.received = 0
-        for topic, msgtype in TOPICS.items():
-            qos = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=QUEUE_DEPTH, reliability=ReliabilityPolicy.RELIABLE,
-                             durability=DurabilityPolicy.TRANSIENT_LOCAL if topic in LATCHED
-                             else DurabilityPolicy.VOLATILE)
-            self.create_subscription(message_class(msgtype), topic, self._receiver(topic, msgtype), qos, raw=True)
-        self.get_logger().info(f'recording {len(TOPICS)} topics into {bag}')
+        self.topic_subscriptions = [self._subscribe(topic) for topic in TOPICS
+                               if topic != common.START_TOPIC or not self.config.hold_start]
+        if self.config.hold_start:
+            self.holding = self.create_timer(0.02, self._join_start)
+        self.get_logger().info(f'recording {len(TOPICS)} topics into {self.config.bag}')
 
-    def _receiver(self, topic, msgtype):
+    def _subscribe(self, topic):
+        return self.create_subscription(TOPICS[topic], topic, self._receiver(topic, TOPICS[topic]), QOS, raw=True)
+
+    def _join_start(self):
+        if all(s.get_publisher_count() for s in self.topic_subscriptions):
+            self.holding.cancel()
+            self._subscribe(common.START_TOPIC)
+            self.get_logger().info(f'every publisher matched; subscribed to {common.START_TOPIC}')
+
+    def _receiver(self, topic, message_class):
+        name = msgtype(message_class)
+
         def receive(cdr):
             self.received += 1
-            self.bag.add_topic(topic, msgtype)
+            self.bag.add_topic(topic, name)
             self.bag.write(topic, header_stamp_ns(cdr), cdr)
-            if topic == TRUTH_TOPIC:
-                truth = deserialize_message(cdr, message_class(msgtype))
-                self.bag.custom_data.update({f'true_{k}': repr(float(getattr(truth, k))) for k in ESTIMATE_FIELDS})
+            if topic == common.TRUE_PARAMETERS_TOPIC:
+                truth = common.estimate_values(deserialize_message(cdr, message_class))
+                self.bag.custom_data.update({f'true_{k}': repr(float(truth[k])) for k in PARAMETER_NAMES})
         return receive
 
     def drain(self, executor, limit=10.0):
         """Spin until no message arrived for drain_time (at most `limit` s)."""
         quiet_since = start = time.monotonic()
         count = self.received
-        while time.monotonic() - quiet_since < self.drain_time and time.monotonic() - start < limit:
+        while time.monotonic() - quiet_since < self.config.drain_time and time.monotonic() - start < limit:
             executor.spin_once(timeout_sec=0.05)
             if self.received != count:
                 count, quiet_since = self.received, time.monotonic()
 
     def close(self):
         self.bag.close()
-        total = sum(self.bag.counts.values())
-        self.get_logger().info(f'{total} messages in {len(self.bag.finished)} splits: {self.bag.path}')
+        self.get_logger().info(f'{sum(self.bag.counts.values())} messages in {len(self.bag.finished)} splits: '
+                               f'{self.bag.path}')
 
 
 def main(args=None):
-    # rclpy's own handlers would shut the context down at once; the recorder drains its queues first.
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    stop = threading.Event()
+    # Not common.run: the recorder drains its queues after a stop signal before it closes the bag.
+    stopping = []
+    rclpy.init(args=sys.argv if args is None else args, signal_handler_options=SignalHandlerOptions.NO)
     for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop.set())
+        signal.signal(signum, lambda *_: stopping.append(True))
     try:
         recorder = Recorder()
-    except InputError as exc:
-        print(exc, file=sys.stderr)
+    except (InputError, ValueError) as error:
+        print(f'recorder: error: {error}', file=sys.stderr)
+        rclpy.shutdown()
         return 2
     executor = EventsExecutor()
     executor.add_node(recorder)
     try:
-        while not stop.is_set():
+        while not stopping:
             executor.spin_once(timeout_sec=0.1)
         recorder.drain(executor)
     finally:

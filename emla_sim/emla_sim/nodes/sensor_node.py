@@ -1,10 +1,45 @@
-"""The sensor node (arrives with issue #4)."""
+"""The sensor node: the DSP's view of the plant (emla_sim.sensor), frame by frame (see common).
+
+State frames /emla/plant/{current,position} are measured (delay, noise, quantisation) onto /emla/*; the
+voltage frames pass unchanged (the DSP knows what it applied).
+"""
 import sys
 
+from emla_msgs.msg import SampleFrame
+from emla_sim.nodes import common
+from emla_sim.sensor import Sensor, SensorConfig
 
-def main():
-    print('sensor: this node arrives with issue #4 and is not available yet', file=sys.stderr)
-    return 3
+SPECS = [
+    common.Spec('current_noise_std', SensorConfig.current_noise_std, 'current noise (Gaussian), std, A', 0.0, 100.0),
+    common.Spec('position_noise_std', SensorConfig.position_noise_std,
+                'position noise (Gaussian, before quantisation), std, m', 0.0, 1.0),
+    common.Spec('position_resolution', SensorConfig.position_resolution, 'position LSB; 0 = not quantised, m',
+                0.0, 1.0),
+    common.Spec('delay_samples', SensorConfig.delay_samples, 'measurement delay, samples', 0, 1_000_000),
+    common.Spec('seed', SensorConfig.seed, 'seed of the noise generator', 0, 2**31 - 1),
+]
+
+
+class SensorNode(common.EmlaNode):
+    NAME = 'sensor'
+
+    def __init__(self):
+        super().__init__()
+        p = common.declare(self, SPECS)
+        self.sensor = Sensor(SensorConfig(**{spec.name: getattr(p, spec.name) for spec in SPECS}))
+        self.outputs = common.frame_publishers(self, common.MEASURED_TOPICS)
+        self.create_subscription(SampleFrame, common.PLANT_TOPICS['voltage'], self.outputs['voltage'].publish,
+                                 common.FRAME_QOS, raw=True)  # passed on serialised
+        self.states = common.FrameSets(self, {name: common.PLANT_TOPICS[name] for name in ('current', 'position')}, self.measure)
+
+    def measure(self, stamp, sample_period, frames):
+        current, position = self.sensor.measure(frames['current'], frames['position'])
+        self.outputs['current'].publish(common.frame_message(stamp, sample_period, current))
+        self.outputs['position'].publish(common.frame_message(stamp, sample_period, position))
+
+
+def main(args=None):
+    return common.run(SensorNode, args)
 
 
 if __name__ == '__main__':

@@ -1,0 +1,67 @@
+"""Plot of a bag's online estimates (/emla/parameters) against an offline estimate and the plant's truth.
+
+    python -m emla_control.estimate_plot BAG IDENTIFY.json OUT.png
+
+IDENTIFY.json is the output of `emla identify BAG --json`.
+"""
+import json
+import sys
+
+import numpy as np
+
+from emla_sim.bag import read_bag
+from emla_sim.parameters import PARAMETER_NAMES
+
+LABELS = {'resistance': 'R [ohm]', 'inductance': 'L [H]', 'emf_constant': 'Km [V s/m]', 'mass': 'm [kg]',
+          'damping': 'B [N s/m]', 'load_force': 'Fl [N]'}
+
+
+def plot_estimates(bag, offline, path):
+    """Write a PNG with one panel per parameter: the online estimate over time (+- 1 sigma), the offline
+    estimate of the whole bag, and the true value as the plant had it."""
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    contents = read_bag(bag)
+    names = [n for n in PARAMETER_NAMES if any(n in values for _, values, _ in contents.estimates)]
+    fig, axes = plt.subplots((len(names) + 1) // 2, 2, figsize=(11, 2.4 * ((len(names) + 1) // 2)),
+                             sharex=True, squeeze=False)
+    for ax, name in zip(axes.flat, names):
+        t = np.array([e[0] for e in contents.estimates if name in e[1]])
+        value = np.array([e[1][name] for e in contents.estimates if name in e[1]])
+        std = np.array([e[2].get(name, np.nan) for e in contents.estimates if name in e[1]])
+        ax.plot(t, value, color='C0', label='online (identifier node)')
+        ax.fill_between(t, value - std, value + std, color='C0', alpha=0.2, linewidth=0)
+        if name in offline.get('parameters', {}):
+            ax.axhline(offline['parameters'][name], color='C1', linestyle='--', label='offline (emla identify)')
+        if contents.truth:
+            ax.step([e[0] for e in contents.truth], [e[1].get(name, np.nan) for e in contents.truth],
+                    where='post', color='k', linestyle=':', label='true (plant)')
+        finite = value[np.isfinite(value)]
+        if finite.size:       # the first estimates are far off; frame the last 80 % of the run
+            tail = finite[len(finite) // 5:]
+            span = max(np.ptp(tail), 0.05 * abs(tail[-1]))
+            ax.set_ylim(tail.min() - span, tail.max() + span)
+        ax.set_ylabel(LABELS[name])
+        ax.grid(alpha=0.3)
+    for ax in axes.flat[len(names):]:
+        ax.axis('off')
+    for ax in axes[-1]:
+        ax.set_xlabel('simulated time [s]')
+    axes.flat[0].legend(loc='best', fontsize='small')
+    fig.suptitle(f'{bag}: online vs offline estimates')
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main(argv=None):
+    bag, offline_json, out = sys.argv[1:] if argv is None else argv
+    with open(offline_json) as f:
+        plot_estimates(bag, json.load(f), out)
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,324 @@
+"""Process orchestration for `emla launch`: an isolated DDS domain, node processes, a clean stop.
+
+A launch holds an advisory lock on one ROS_DOMAIN_ID (a lock file per id), so parallel launches on this host
+never share a domain; discovery is limited to localhost. Each node is its own process group (own session)
+and gets SIGTERM if the launcher dies; stop() ends them with SIGINT, then SIGTERM, then SIGKILL after
+timeouts and removes the shared-memory files Fast DDS leaves behind killed processes.
+"""
+import collections
+import contextlib
+import ctypes
+import dataclasses
+import fcntl
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+from emla_sim.bag import read_bag, stamp_to_ns
+from emla_sim.errors import InputError
+
+# Domain ids a launch may take: 215-232 first (clear of the ids tests and users pick), then 1-101.
+DOMAINS = (*range(215, 233), *range(1, 102))
+BIN = Path(sys.executable).parent
+
+
+@contextlib.contextmanager
+def reserved_domain():
+    """A ROS_DOMAIN_ID no other launch on this host holds, held until the block ends."""
+    for domain in DOMAINS:
+        lock = open(Path(tempfile.gettempdir()) / f'emla-ros-domain-{domain}.lock', 'w')
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            lock.close()
+            continue
+        try:
+            yield domain
+        finally:
+            lock.close()
+        return
+    raise InputError(f'every ROS domain id a launch may use ({len(DOMAINS)}) is taken by other launches')
+
+
+def domain_env(domain):
+    """The environment of a graph in `domain`: this host only, unbuffered output."""
+    return {**os.environ, 'ROS_DOMAIN_ID': str(domain), 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
+            'PYTHONUNBUFFERED': '1'}
+
+
+def _terminate_with_parent():
+    """In the child before exec: SIGTERM when the launcher dies (Linux PR_SET_PDEATHSIG)."""
+    ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)
+
+
+class NodeProcess:
+    """One node process; the last lines of its output (stdout and stderr) are kept for error messages."""
+
+    def __init__(self, name, args, env):
+        self.name = name
+        self.popen = subprocess.Popen(args, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                                      stderr=subprocess.STDOUT, text=True, start_new_session=True,
+                                      preexec_fn=_terminate_with_parent)
+        self.tail = collections.deque(maxlen=20)
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+
+    def _read(self):
+        for line in self.popen.stdout:
+            if line.strip():
+                self.tail.append(line.rstrip())
+
+    @property
+    def pid(self):
+        return self.popen.pid
+
+    def running(self):
+        return self.popen.poll() is None
+
+    def signal(self, signum):
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(self.pid, signum)
+
+    def last_line(self):
+        if not self.running():
+            self._reader.join(timeout=1.0)     # the rest of the output of a process that just ended
+        return self.tail[-1] if self.tail else '(no output)'
+
+    def describe_exit(self):
+        code = self.popen.returncode
+        how = f'was killed by {signal.Signals(-code).name}' if code < 0 else f'exited with status {code}'
+        return f'{self.name} (pid {self.pid}) {how}: {self.last_line()}'
+
+
+class Graph:
+    """The node processes of one launch; use as a context manager (stops them all on exit)."""
+
+    def __init__(self, env):
+        self.env = env
+        self.nodes = []
+
+    def start(self, name, args):
+        node = NodeProcess(name, args, self.env)
+        self.nodes.append(node)
+        return node
+
+    def __getitem__(self, name):
+        return next(n for n in self.nodes if n.name == name)
+
+    def stop(self, names=None, timeouts=(5.0, 3.0, 3.0)):
+        """End the named nodes (all by default): SIGINT, SIGTERM, SIGKILL, each after the previous timed out."""
+        nodes = [n for n in self.nodes if names is None or n.name in names]
+        killed = False
+        for signum, timeout in zip((signal.SIGINT, signal.SIGTERM, signal.SIGKILL), timeouts):
+            alive = [n for n in nodes if n.running()]
+            if not alive:
+                break
+            killed = signum == signal.SIGKILL
+            for node in alive:
+                node.signal(signum)
+            deadline = time.monotonic() + timeout
+            for node in alive:
+                with contextlib.suppress(subprocess.TimeoutExpired):
+                    node.popen.wait(timeout=max(0.0, deadline - time.monotonic()))
+        if killed or any(n.popen.returncode not in (0, None) for n in nodes):
+            clean_shared_memory()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.stop()
+        return False
+
+
+def clean_shared_memory():
+    """Remove the Fast DDS shared-memory files of processes that are gone (a SIGKILL leaves them)."""
+    fastdds = BIN / 'fastdds'
+    if fastdds.exists():
+        subprocess.run([str(fastdds), 'shm', 'clean'], capture_output=True, timeout=30)
+
+
+@contextlib.contextmanager
+def ros_node(name, domain=None):
+    """(node, executor) of an rclpy node in its own context (domain from the environment unless given).
+
+    rclpy's signal handlers are not installed: SIGINT raises KeyboardInterrupt between spin_once() calls.
+    """
+    import rclpy
+    from rclpy.experimental import EventsExecutor
+    from rclpy.signals import SignalHandlerOptions
+
+    context = rclpy.Context()
+    rclpy.init(context=context, domain_id=domain, signal_handler_options=SignalHandlerOptions.NO)
+    node = rclpy.create_node(name, context=context, start_parameter_services=False)
+    executor = EventsExecutor(context=context)
+    executor.add_node(node)
+    try:
+        yield node, executor
+    finally:
+        executor.shutdown()
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
+
+
+# ---- a launch: the four nodes and the recorder, until the identifier's final estimate is recorded ----
+
+NODES = ('plant', 'sensor', 'identifier', 'controller')
+START_SUBSCRIBERS = 3        # of /emla/position before the plant starts: controller, identifier, recorder
+STALL_TIMEOUT = 60.0         # s without simulated progress (start-up included) before the launch gives up
+FINAL_TIMEOUT = 30.0         # s from the done signal to the identifier's final estimate
+
+
+class LaunchError(Exception):
+    """A launch that failed; the message is one line for the user."""
+
+
+class Monitor:
+    """The launcher's view of the graph: simulated time, the done signal and the latest estimate."""
+
+    def __init__(self, node):
+        from builtin_interfaces.msg import Time
+        from emla_msgs.msg import ParameterEstimate
+        from rosgraph_msgs.msg import Clock
+
+        from emla_sim.nodes import common
+
+        self.first_tick = self.last_tick = None    # (wall s, simulated ns) of /clock
+        self.done = None                           # simulated ns of the plant's end
+        self.done_wall = None
+        self.estimate = None                       # the latest ParameterEstimate
+        node.create_subscription(Clock, common.CLOCK_TOPIC, self._on_clock, common.CLOCK_QOS)
+        node.create_subscription(Time, common.DONE_TOPIC, self._on_done, common.LATCHED_QOS)
+        node.create_subscription(ParameterEstimate, common.ESTIMATE_TOPIC, self._on_estimate, common.LATCHED_QOS)
+
+    def _on_clock(self, msg):
+        self.last_tick = (time.monotonic(), stamp_to_ns(msg.clock))
+        self.first_tick = self.first_tick or self.last_tick
+
+    def _on_done(self, msg):
+        self.done, self.done_wall = stamp_to_ns(msg), time.monotonic()
+
+    def _on_estimate(self, msg):
+        self.estimate = msg
+
+    @property
+    def now(self):
+        """Simulated time reached, s (0 before the start)."""
+        return (self.done if self.done is not None else self.last_tick[1] if self.last_tick else 0) * 1e-9
+
+    def final(self):
+        """The identifier's final estimate (stamped with the plant's end time) once it has come."""
+        if self.done is not None and self.estimate is not None \
+                and stamp_to_ns(self.estimate.header.stamp) >= self.done:
+            return self.estimate
+        return None
+
+    def realtime_factor(self):
+        """Simulated over wall time from the first /clock tick to the done signal (None without ticks)."""
+        if self.first_tick is None or self.done_wall <= self.first_tick[0]:
+            return None
+        wall, sim = self.first_tick
+        return round((self.done - sim) * 1e-9 / (self.done_wall - wall), 4)
+
+
+def write_params(directory, node, parameters):
+    """A ROS 2 params file for /emla/<node>; its path."""
+    import yaml
+    path = Path(directory) / f'{node}.yaml'
+    path.write_text(yaml.safe_dump({f'/emla/{node}': {'ros__parameters': parameters}}, sort_keys=False))
+    return path
+
+
+def launch(scenario, duration, bag, node_parameters, *, progress=True):
+    """Run the graph: NODES as processes with `node_parameters` {node: {name: value}} (the plant's duration
+    and start barrier are set here), and the recorder writing `bag`. Returns the contract's summary dict;
+    raises LaunchError when a node dies or the run stalls. Every process is stopped on return."""
+    from tqdm import tqdm
+
+    started = time.monotonic()
+    parameters = {**node_parameters, 'plant': {**node_parameters.get('plant', {}), 'duration': float(duration),
+                                               'start_subscribers': START_SUBSCRIBERS},
+                  'recorder': {'bag': str(bag), 'scenario': scenario, 'hold_start': True}}
+    with reserved_domain() as domain, tempfile.TemporaryDirectory(prefix='emla-launch-') as tmp, \
+            Graph(domain_env(domain)) as graph, ros_node('emla_launch', domain) as (node, executor), \
+            tqdm(total=round(duration, 6), unit='s', desc=f'{scenario} (domain {domain})', file=sys.stderr,
+                 disable=not progress, bar_format='{desc}: {n:.3f}/{total} s simulated [{elapsed}]') as bar:
+        monitor = Monitor(node)
+        for name in ('recorder', *NODES):
+            graph.start(name, [str(BIN / 'emla'), 'run', name, '--params-file',
+                               str(write_params(tmp, name, parameters.get(name, {})))])
+        _wait_for_final(graph, monitor, executor, bar)
+        graph.stop([n for n in NODES])
+        graph.stop(['recorder'])
+        if graph['recorder'].popen.returncode != 0:
+            raise LaunchError(f'the recorder failed: {graph["recorder"].describe_exit()}')
+        final, rtf = monitor.final(), monitor.realtime_factor()
+        nodes = [{'name': n.name, 'pid': n.pid} for n in graph.nodes]
+    contents = read_bag(bag)
+    if not contents.estimates or contents.estimates[-1][0] != stamp_to_ns(final.header.stamp) * 1e-9:
+        raise LaunchError(f'{bag}: the recorder missed the final estimate')
+    return {'scenario': scenario, 'duration': duration, 'wall_time': round(time.monotonic() - started, 3),
+            'realtime_factor': rtf, 'final_parameters': contents.estimates[-1][1],
+            'true_parameters': contents.truth[-1][1] if contents.truth else {}, 'bag': str(bag), 'nodes': nodes}
+
+
+def _wait_for_final(graph, monitor, executor, bar):
+    """Spin the monitor until the final estimate came; LaunchError when a node dies or nothing moves."""
+    progress_at, reached = time.monotonic(), -1.0
+    while monitor.final() is None:
+        executor.spin_once(timeout_sec=0.05)
+        for node in graph.nodes:
+            if not node.running() and not (node.name == 'plant' and node.popen.returncode == 0):
+                raise LaunchError(f'{node.describe_exit()}')
+        now = time.monotonic()
+        if monitor.now > reached:
+            progress_at, reached = now, monitor.now
+            bar.update(round(reached - bar.n, 6))
+        limit = FINAL_TIMEOUT if monitor.done is not None else STALL_TIMEOUT
+        if now - progress_at > limit:
+            what = 'no final estimate after the plant finished' if monitor.done is not None else \
+                'the simulation did not start' if reached <= 0 else f'the simulation stalled at t = {reached:.4f} s'
+            raise LaunchError(f'{what} (nothing for {limit:g} s; '
+                              f'last output: {"; ".join(f"{n.name}: {n.last_line()}" for n in graph.nodes)})')
+
+
+# ---- scenarios as a graph ----
+
+def graph_case(scenario):
+    """The case of `scenario` the graph runs: the adaptive controller, on the changed plant if there is one."""
+    adaptive = [case for case, (_, adapt) in scenario.cases.items() if adapt]
+    return max(adaptive, key=lambda case: scenario.cases[case][0])
+
+
+def scenario_parameters(scenario):
+    """{node: {parameter: value}} that make the graph run `scenario` (see graph_case). The control period
+    stays the nodes' own (1 ms frames), as do the controller's gains tuned for it."""
+    from emla_sim.nodes import common
+
+    changed, adaptive = scenario.cases[graph_case(scenario)]
+    actuator = {name: getattr(scenario.params, name) for name in common.ACTUATOR_FIELDS}
+    plant = {**actuator, 'sample_period': scenario.sample_period}
+    if changed and scenario.effects:
+        plant['effects'] = [effect.name for effect in scenario.effects]
+        plant['effect_parameters'] = [f'{effect.name}.{f.name}={getattr(effect, f.name)!r}'
+                                      for effect in scenario.effects for f in dataclasses.fields(effect)]
+    if changed and scenario.changes:
+        if any(change.factor is None for change in scenario.changes):
+            raise InputError(f'scenario {scenario.name}: the plant node takes parameter changes as factors only')
+        plant['change_times'] = [float(change.time) for change in scenario.changes]
+        plant['change_parameters'] = [change.parameter for change in scenario.changes]
+        plant['change_factors'] = [float(change.factor) for change in scenario.changes]
+    reference = scenario.reference
+    return {
+        'plant': plant,
+        'sensor': {'seed': scenario.seed},
+        'identifier': {'sample_period': scenario.sample_period, 'memory_time': scenario.memory_time},
+        'controller': {**actuator, 'sample_period': scenario.sample_period, 'adaptive': adaptive,
+                       'stroke': reference.stroke, 'reference_period': reference.period,
+                       'transition': reference.transition},
+    }

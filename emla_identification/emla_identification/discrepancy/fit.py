@@ -1,0 +1,234 @@
+"""The nominal regressions of regressors.py, augmented by candidate terms, solved jointly and judged on
+held-out blocks.
+
+Rows of the electrical and the mechanical regression are stacked, each weighted by 1/sigma of its nominal
+residual, so that a parameter shared by both equations (Km(x)) is fitted once. The h-dependent
+coefficient of each regression is tied (regressors.tie) with h = R Ts / L of the model the fit is
+linearised about. A candidate's columns are its terms linearised about that model (one Gauss-Newton step;
+`fit` refits once about the result), scaled so that their coefficients are the candidate's physical
+parameters:
+
+    electrical, I_k+1 = alpha I_k + beta (u_k - Km v) over one interval, so
+        voltage term e:        -beta e
+        inductance term l:     dI_k+1/dL * l = -(alpha Ts / L^2) (u_k - R I_k - Km v) l
+    mechanical, second difference of position / Ts^2 = triangle-weighted (force / m) - ..., so
+        force term f:          -(f_k-1 + 4 f_k + f_k+1) / (6 m)
+
+The electrical terms see the interval: its mean current (from the model's step, free of the output's
+noise), mid position and back-EMF velocity; the mechanical ones see each sample.
+
+The record is cut into FOLDS contiguous blocks and every block's sums of squares are kept, so each
+leave-one-block-out fit and its error on the block it left out cost one small solve. The blocks give the
+held-out (cross-validated) residuals and delete-one-block jackknife uncertainties, which stay honest when
+residuals are coloured (by correlations shorter than a block).
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+from emla_identification.greybox import _coil_parameters, _force_parameters
+from emla_identification.regressors import emf_lag, rows, tie
+
+from .data import State, regression_rows
+
+FOLDS = 10
+NOMINAL = {'electrical': ('resistance', 'inductance', 'emf_constant'),
+           'mechanical': ('mass', 'damping', 'load_force'), 'force': ('mass', 'damping', 'load_force')}
+
+
+def _decay(model, ts):
+    """h = R Ts / L of a model (0 without coil parameters: the force regression needs no tie)."""
+    return model['resistance'] * ts / model['inductance'] if 'inductance' in model else 0.0
+
+
+class ElectricalRows:
+    """The tied electrical regression [I_k, u_k, -v] -> I_k+1 of `data` about `model`, and candidate columns."""
+
+    def __init__(self, data, model):
+        self.data, self.model = data, model
+        ts = data.sample_period
+        phi, self.y = rows('electrical', data.signals, ts)
+        h = _decay(model, ts)
+        self.phi = phi @ tie('electrical', h).T
+        self.alpha, self.beta = np.exp(-h), -np.expm1(-h) / model['resistance']
+        self.velocity = -self.phi[:, 2]    # the back-EMF's weighted mean velocity over the interval
+        self.index = regression_rows(data)
+        x = data.signals['position']
+        self.position = 0.5 * (x[self.index] + x[self.index + 1])
+
+    def columns(self, candidates, rows=slice(None), current=None):
+        """(n, q) columns at regression rows `rows`, with the interval-start current `current` if given."""
+        m = self.model
+        current = self.phi[rows, 0] if current is None else current
+        voltage = self.phi[rows, 1]
+        if not candidates:
+            return np.zeros((len(voltage), 0))
+        drop = voltage - m['resistance'] * current - m['emf_constant'] * self.velocity[rows]
+        state = State(self.data, self.index[rows], position=self.position[rows], velocity=self.velocity[rows],
+                      current=0.5 * ((1.0 + self.alpha) * current + self.beta * drop), voltage=voltage)
+        blocks = []
+        for c in candidates:
+            block = np.zeros((len(voltage), len(c.parameters)))
+            e, l = c.voltage(state), c.inductance(state)
+            if e is not None:
+                block -= self.beta * e.T
+            if l is not None:
+                block -= (self.alpha * self.data.sample_period / m['inductance'] ** 2) * (drop * l).T
+            blocks.append(block)
+        return np.hstack(blocks)
+
+
+def mechanical_rows(data, model, candidates):
+    """(Phi tied, Y, candidate force columns) of the mechanical (or force) regression about `model`."""
+    kind = data.kinds[-1]
+    phi, y = rows(kind, data.signals, data.sample_period)
+    phi = phi @ tie(kind, _decay(model, data.sample_period)).T
+    state = data.state()
+    blocks = [np.zeros((len(y), 0))]
+    for c in candidates:
+        f = c.force(state)
+        if f is None:
+            blocks.append(np.zeros((len(y), len(c.parameters))))
+        else:
+            blocks.append(-(f[:, 1:-3] + 4.0 * f[:, 2:-2] + f[:, 3:-1]).T / (6.0 * model['mass']))
+    return phi, y, np.hstack(blocks)
+
+
+def design(data, model, candidates):
+    """{kind: (Phi tied, Y, candidate columns)} about `model`."""
+    out = {}
+    if data.electrical:
+        electrical = ElectricalRows(data, model)
+        out['electrical'] = (electrical.phi, electrical.y, electrical.columns(candidates))
+    out[data.kinds[-1]] = mechanical_rows(data, model, candidates)
+    return out
+
+
+@dataclass
+class Fit:
+    """The model nominal + `candidates` fitted to `data`."""
+
+    data: object
+    candidates: tuple
+    theta: dict            # kind -> tied nominal coefficients
+    added: np.ndarray      # the candidates' parameters, in order
+    added_std: np.ndarray  # their jackknife one-sigma
+    sigma: dict            # kind -> row weight 1/sigma (the reference's residual std)
+    rms: dict              # kind -> this fit's residual std
+    heldout: np.ndarray    # (FOLDS, kinds): weighted residual sum of squares of each block when left out
+    parameters: dict       # nominal physical parameters (greybox names) of this fit, + 'sample_period'
+    std: dict              # their jackknife one-sigma
+    linearised_about: dict
+
+    def added_slices(self):
+        """(candidate, slice of `added`) pairs."""
+        out, start = [], 0
+        for c in self.candidates:
+            out.append((c, slice(start, start + len(c.parameters))))
+            start += len(c.parameters)
+        return out
+
+    def residuals(self):
+        """{kind: one-step residual of each regression row (rows: data.regression_rows)}."""
+        return {kind: y - phi @ self.theta[kind] - extra @ self.added
+                for kind, (phi, y, extra) in design(self.data, self.linearised_about, self.candidates).items()}
+
+
+def fit(data, candidates=(), reference=None, *, relinearise=True):
+    """Nominal + candidates fitted to data, linearised about and weighted like `reference` (a Fit).
+
+    Without a reference, the nominal model is fitted first and serves as one. With `relinearise` the
+    result is refitted once about itself, so that the candidates' columns (and the tie) follow the
+    re-identified model rather than the reference.
+    """
+    candidates = tuple(candidates)
+    if reference is None:
+        start = _coil_guess(data)
+        unweighted = _solve(data, (), start, {kind: 1.0 for kind in data.kinds})
+        reference = _solve(data, (), unweighted.parameters, unweighted.rms)
+        if not candidates:
+            return reference
+    result = _solve(data, candidates, reference.parameters, reference.sigma)
+    if relinearise and physical(result.parameters):
+        result = _solve(data, candidates, result.parameters, reference.sigma)
+    return result
+
+
+def physical(parameters):
+    """Whether a parameter set is a possible actuator (finite; R, L, m positive where present)."""
+    return all(np.isfinite(v) for v in parameters.values()) and \
+        all(parameters.get(name, 1.0) > 0 for name in ('resistance', 'inductance', 'mass'))
+
+
+def _coil_guess(data):
+    """R and L from the untied electrical regression, to tie it (h) in the first fit."""
+    if not data.electrical:
+        return {}
+    phi, y = rows('electrical', data.signals, data.sample_period)
+    alpha, beta = np.linalg.lstsq(phi, y, rcond=None)[0][:2]
+    resistance = (1.0 - alpha) / beta
+    return {'resistance': resistance, 'inductance': resistance * data.sample_period / -np.log(alpha)}
+
+
+def _solve(data, candidates, model, sigma):
+    blocks = design(data, model, candidates)
+    kinds = tuple(blocks)
+    widths = [blocks[k][0].shape[1] for k in kinds]
+    q = next(iter(blocks.values()))[2].shape[1]
+    n = sum(widths) + q
+    folds = regression_rows(data) * FOLDS // len(data)
+    sums = np.zeros((FOLDS, len(kinds), n + 1, n + 1))   # per block and regression: Z'Z, Z = [Phi | Y] / sigma
+    for j, kind in enumerate(kinds):
+        phi, y, extra = blocks[kind]
+        z = np.zeros((len(y), n + 1))
+        start = sum(widths[:j])
+        z[:, start:start + widths[j]] = phi
+        z[:, sum(widths):n] = extra
+        z[:, n] = y
+        z /= sigma[kind]
+        for f in range(FOLDS):
+            zf = z[folds == f]
+            sums[f, j] = zf.T @ zf
+    total = sums.sum(axis=(0, 1))
+    theta = _least_squares(total, n)
+    left_out = np.array([_least_squares(total - sums[f].sum(axis=0), n) for f in range(FOLDS)])
+    heldout = np.array([[_rss(sums[f, j], t, n) for j in range(len(kinds))] for f, t in enumerate(left_out)])
+    rows_per_kind = len(folds)
+    # residual std of each equation, floored for noise-free data (it becomes a row weight)
+    rms = {kind: sigma[kind] * max(np.sqrt(_rss(sums[:, j].sum(axis=0), theta, n) / (rows_per_kind - n)),
+                                   1e-9 * np.sqrt(sums[:, j, n, n].sum() / rows_per_kind))
+           for j, kind in enumerate(kinds)}
+    nominal = slice(0, sum(widths))
+    values = _physical(kinds, np.vstack((theta, left_out))[:, nominal], data.sample_period)
+    names = [name for kind in kinds for name in NOMINAL[kind]]
+    added = slice(sum(widths), n)
+    return Fit(data, candidates, {k: theta[sum(widths[:j]):sum(widths[:j + 1])] for j, k in enumerate(kinds)},
+               theta[added], _jackknife_std(left_out[:, added]), sigma, rms, heldout,
+               dict(zip(names, map(float, values[0])), sample_period=data.sample_period),
+               dict(zip(names, map(float, _jackknife_std(values[1:])))), model)
+
+
+def _physical(kinds, coefficients, ts):
+    """Physical parameters (NOMINAL order) from rows of tied coefficients."""
+    with np.errstate(all='ignore'):
+        return _force_parameters(coefficients, ts) if kinds == ('force',) else _coil_parameters(coefficients, ts)
+
+
+def _jackknife_std(left_out):
+    """Delete-one-block jackknife standard deviation of each column of the leave-one-out estimates."""
+    deviation = left_out - left_out.mean(axis=0)
+    return np.sqrt((FOLDS - 1) / FOLDS * np.sum(deviation ** 2, axis=0))
+
+
+def _least_squares(s, n):
+    """theta minimising the sum of squares held in s = Z'Z (columns scaled for conditioning)."""
+    g, b = s[:n, :n], s[:n, n]
+    if not np.all(np.isfinite(s)):
+        return np.full(n, np.nan)
+    scale = np.sqrt(np.diag(g))
+    scale[scale == 0] = 1.0
+    return np.linalg.lstsq(g / np.outer(scale, scale), b / scale, rcond=1e-13)[0] / scale
+
+
+def _rss(s, theta, n):
+    return float(s[n, n] - 2.0 * theta @ s[:n, n] + theta @ s[:n, :n] @ theta)

@@ -1,0 +1,198 @@
+"""The model-discrepancy workflow: fit the nominal model, rank candidate effects, add the best, re-identify,
+and report the gap between model and measurement before and after; then look again for a second effect.
+
+Ranking and significance. Every candidate is fitted together with the nominal parameters (fit.py) and
+judged on held-out data: the record is cut into FOLDS contiguous blocks, each block is predicted by the
+model fitted to the others, and
+
+    score = sum over the equations of (held-out residual sum of squares the candidate removes)
+            / (the base model's held-out residual sum of squares),
+
+i.e. the fraction of the base model's out-of-sample one-step error the effect explains. A candidate is
+significant when
+  1. it improves the held-out error in at least MIN_BLOCKS of the FOLDS blocks: a sign test on whole
+     blocks, valid however coloured the residuals are inside a block (9 of 10 by chance: p = 0.011),
+  2. its score is at least MIN_SCORE: with N ~ 1e4..1e5 samples any term correlated with a tiny structural
+     misfit would pass a test of "different from zero"; an effect has to matter (noise-only data give
+     scores below 0.1 %, the effects of physics.md at realistic strengths 5 % and more), and
+  3. its parameters are resolved: some parameter is at least MIN_T jackknife sigmas from zero (block
+     jackknife, again robust to coloured residuals); a delay has no continuous parameter.
+Fitting noise cannot pass 1 and 2 together: a term that only fits noise predicts held-out blocks worse.
+"""
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from emla_sim.errors import InputError
+
+from .candidates import library
+from .data import Data, regression_rows
+from .fit import FOLDS, fit, physical
+from .residuals import binned, cross_correlation, whiteness
+from .simulate import MECHANICAL_TIME, predict
+
+MIN_BLOCKS = 9
+MIN_SCORE = 0.01
+MIN_T = 3.0
+
+METHOD = ('k-step-ahead prediction of each subsystem from its measured inputs: current from the measured '
+          'voltage and position-derived back-EMF velocity (horizon 5 L/R, a free run in effect), position from '
+          f'the measured current or force (horizon {MECHANICAL_TIME * 1e3:g} ms, started from the measured position '
+          'and a model-based local velocity estimate); candidates ranked by the fraction of the held-out '
+          f'one-step residual they remove ({FOLDS} contiguous blocks, leave-one-block-out)')
+
+
+@dataclass
+class Assessment:
+    """One candidate, at its best variant, judged against a base model."""
+
+    name: str
+    fit: object                 # base + this candidate, fitted
+    score: float
+    per_equation: dict          # kind -> fraction of that equation's held-out error removed
+    blocks_improved: int
+    parameters: dict            # {name: (value, one-sigma)}
+    settings: dict
+    resolved: bool
+
+    @property
+    def significant(self):
+        return self.blocks_improved >= MIN_BLOCKS and self.score >= MIN_SCORE and self.resolved
+
+    @property
+    def evidence(self):
+        params = '; '.join(f'{k} = {_format(v, s)}' for k, (v, s) in self.parameters.items())
+        settings = ', '.join(f'{k} {v:.3g}' for k, v in self.settings.items() if isinstance(v, (int, float)))
+        equations = ', '.join(f'{k} {100 * v:.1f} %' for k, v in self.per_equation.items())
+        return (f'{params or "no parameters"}{f" ({settings})" if settings else ""}; removes {equations} of the '
+                f'held-out one-step error; better in {self.blocks_improved}/{FOLDS} held-out blocks')
+
+    def to_dict(self):
+        return {'effect': self.name, 'score': round(self.score, 6), 'significant': bool(self.significant),
+                'evidence': self.evidence}
+
+
+def _format(value, sigma):
+    return f'{value:.4g} +- {sigma:.2g}' if sigma else f'{value:.4g}'
+
+
+@dataclass
+class Diagnosis:
+    data: Data
+    nominal: object                  # Fit
+    candidates: list                 # Assessments against the nominal model, best first
+    final: object                    # Fit with the named effect (the nominal one when none)
+    before: dict                     # signal -> Prediction of the nominal model
+    after: dict                      # signal -> Prediction of the final model
+    second: list = field(default_factory=list)   # Assessments against the final model, best first
+
+    @property
+    def main(self):
+        best = self.candidates[0] if self.candidates else None
+        return best if best is not None and best.significant else None
+
+    @property
+    def second_effect(self):
+        best = self.second[0] if self.second else None
+        return best if best is not None and best.significant else None
+
+    def added_parameters(self):
+        return self.main.parameters if self.main else {}
+
+    def to_dict(self):
+        main, second = self.main, self.second_effect
+        out = {
+            'missing_effect': main.name if main else 'none',
+            'candidates': [a.to_dict() for a in self.candidates],
+            'gap_before': {s: round(p.nrmse, 6) for s, p in self.before.items()},
+            'gap_after': {s: round(p.nrmse, 6) for s, p in self.after.items()},
+            'added_parameters': {k: v for k, (v, _) in self.added_parameters().items()},
+            'added_parameters_std': {k: s for k, (_, s) in self.added_parameters().items()},
+            'nominal_parameters': _rounded(self.nominal.parameters),
+            'reidentified_parameters': _rounded(self.final.parameters),
+            'second_effect': second.to_dict() if second else None,
+            'method': METHOD,
+        }
+        if second:
+            out['second_effect']['added_parameters'] = {k: v for k, (v, _) in second.parameters.items()}
+        return out
+
+
+def _rounded(parameters):
+    return {k: float(f'{v:.6g}') for k, v in parameters.items()}
+
+
+def diagnose(recording, names=None):
+    """The Diagnosis of a Recording (t, voltage, current, position or t, force, position)."""
+    data = Data.from_recording(recording)
+    nominal = fit(data)
+    if not physical(nominal.parameters):
+        raise InputError(f'{data.source}: the nominal model cannot be identified from these data (' +
+                         ', '.join(f'{k} = {v:.4g}' for k, v in nominal.parameters.items()) +
+                         '); does the recording excite the actuator?')
+    ranked = rank(nominal, library(data, names))
+    main = ranked[0] if ranked and ranked[0].significant else None
+    final = main.fit if main else nominal
+    second = rank(final, [c for c in library(data, names) if c.name != main.name]) if main else []
+    return Diagnosis(data, nominal, ranked, final, predict(nominal), predict(final), second)
+
+
+def rank(base, candidates):
+    """Assessments of `candidates` added to the model `base` (a Fit), best score first."""
+    return sorted((assess(base, c) for c in candidates), key=lambda a: -a.score)
+
+
+def assess(base, candidate):
+    """The candidate at its best variant (held-out error of a one-pass fit), refitted and judged."""
+    def heldout_error(variant):
+        trial = fit(variant.realigned(base.data), base.candidates + (variant,), base, relinearise=False)
+        error = trial.heldout.sum()
+        return error if np.isfinite(error) else np.inf
+    variants = candidate.variants(base.data)
+    best = min(variants, key=heldout_error) if len(variants) > 1 else variants[0]
+    result = fit(best.realigned(base.data), base.candidates + (best,), base)
+    gain = np.nan_to_num((base.heldout - result.heldout) / base.heldout.sum(axis=0), nan=-np.inf)
+    kinds = result.data.kinds
+    part = result.added_slices()[-1][1]
+    values, stds = result.added[part], result.added_std[part]
+    parameters = best.reported(values, stds, result.parameters)
+    resolved = not len(values) or bool(np.any(np.abs(values) >= MIN_T * stds))
+    return Assessment(candidate.name, result, float(gain.sum()), dict(zip(kinds, map(float, gain.sum(axis=0)))),
+                      int(np.sum(gain.sum(axis=1) > 0)), parameters, best.settings(), resolved)
+
+
+@dataclass
+class Localisation:
+    """One equation's one-step residual in physical units, and what it correlates with."""
+
+    kind: str
+    quantity: str               # 'voltage' (V) or 'force' (N)
+    index: np.ndarray           # samples
+    residual: np.ndarray
+    whiteness: object           # residuals.Correlation
+    input_name: str
+    cross: object               # residuals.Correlation with the input
+    bins: dict                  # signal name -> residuals.Binned
+
+
+def localise(result):
+    """{kind: Localisation} of a Fit's residuals against time, velocity, position, current and its rate."""
+    data, p = result.data, result.parameters
+    ts = data.sample_period
+    k = regression_rows(data)
+    against = {'time': data.time[k], 'velocity': data.velocity()[k], 'position': data.signals['position'][k]}
+    drive = data.drive
+    against[drive] = data.signals[drive][k]
+    against[f'{drive} rate'] = np.gradient(data.signals[drive], ts)[k]
+    out = {}
+    for kind, residual in result.residuals().items():
+        if kind == 'electrical':
+            h = p['resistance'] * ts / p['inductance']
+            scale, quantity, input_name = p['resistance'] / -np.expm1(-h), 'voltage', 'voltage'   # 1 / beta
+        else:
+            scale, quantity, input_name = p['mass'], 'force', drive
+        e = residual * scale
+        out[kind] = Localisation(kind, quantity, k, e, whiteness(e), input_name,
+                                 cross_correlation(e, data.signals[input_name][k]),
+                                 {name: binned(e, z) for name, z in against.items()})
+    return out

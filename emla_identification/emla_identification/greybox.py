@@ -1,0 +1,328 @@
+"""Physical EMLA parameters (R, L, Km, m, B, Fl) from the regressions of regressors.py.
+
+Each regression is solved by exponentially weighted least squares (whole recordings: offline.py; streams:
+rls.py, see online.py). Its state (theta, P, residual variance) holds the quadratic cost completely, so the
+coefficient that depends on h = R Ts / L (see regressors.py) is tied afterwards: the cost is minimised
+over the reduced coefficients with that tie, for h from the electrical estimate, a few times until h
+settles. Stream and batch therefore give the same parameters from the same samples.
+
+Uncertainties are one-sigma. The residuals are far from white (differencing the quantised position colours
+them), so they come from a noise model instead of sigma2 P: white noise on each measured signal, carried
+through the rows, with variances fitted to the residual autocovariances (_noise_covariances); the lagged
+moments this needs are kept alongside the least-squares state (LagMoments). The coefficients' covariance
+reaches the physical parameters by the delta method, the regressions taken as independent. On the test
+data the reported values match the scatter over noise realisations to within some 30 %.
+"""
+import functools
+import itertools
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from emla_sim.errors import InputError
+from emla_sim.parameters import PARAMETER_NAMES
+
+from . import offline
+from .regressors import (COLUMNS, HISTORY, SIGNALS, default_model, emf_lag, noise_stencils, regressions_for, rows,
+                         tie)
+from .rls import forgetting_factor
+
+MODEL_PARAMETERS = {
+    'electrical': ('resistance', 'inductance', 'emf_constant'),
+    'mechanical': ('mass', 'damping', 'load_force'),
+    'full': PARAMETER_NAMES,
+}
+MIN_ROWS = 16           # regression rows (samples - HISTORY) below which a record is too short
+_TIE_ITERATIONS = 6     # h settles to rounding level in 3-5 (the tie depends on h only through eta ~ h/12)
+_MAX_CONDITION = 1e12   # normalised information matrix above this: a parameter is not excited
+
+
+class LagMoments:
+    """sum_k lambda^(N-k) z_k z_(k-d)' for d = 1 .. HISTORY over a stream of rows z = [phi, y], in any frames."""
+
+    def __init__(self, width, forgetting=1.0):
+        self.forgetting = forgetting
+        self.moments = np.zeros((HISTORY, width, width))
+        self._tail = np.zeros((HISTORY, width))  # zero rows before the first contribute nothing
+
+    def update(self, z):
+        m = len(z)
+        if m == 0:
+            return
+        width = z.shape[1]
+        rows_ = np.concatenate((self._tail, z))
+        lagged = np.hstack([rows_[HISTORY - d:HISTORY - d + m] for d in range(1, HISTORY + 1)])
+        if self.forgetting != 1.0:
+            z = z * (self.forgetting ** np.arange(m - 1, -1, -1.0))[:, None]
+            self.moments *= self.forgetting ** m
+        self.moments += (z.T @ lagged).reshape(width, HISTORY, width).transpose(1, 0, 2)
+        self._tail = rows_[-HISTORY:]
+
+
+@dataclass(frozen=True)
+class Statistics:
+    """State of one regression: theta, P (unscaled), sigma2, effective samples (as rls.py and offline.py keep
+    them) and the lagged moments of its rows (LagMoments.moments) for the noise model."""
+
+    theta: np.ndarray
+    covariance: np.ndarray
+    residual_variance: float
+    effective_samples: float
+    lags: np.ndarray
+
+    @functools.cached_property
+    def information(self):
+        return np.linalg.inv(self.covariance)
+
+    def restrict(self, T):
+        """theta_r minimising the same cost with coefficients T' theta_r."""
+        return np.linalg.solve(T @ self.information @ T.T, T @ self.information @ self.theta)
+
+    def residual_products(self, T, theta):
+        """Weighted sums of r_k r_(k-d), d = 0 .. HISTORY, of the residuals with coefficients T' theta."""
+        offset = self.theta - T.T @ theta
+        rss = self.residual_variance * (self.effective_samples - len(self.theta)) + offset @ self.information @ offset
+        a = np.append(-(T.T @ theta), 1.0)
+        return np.concatenate(([rss], self.lags @ a @ a))
+
+    @functools.cached_property
+    def regressor_lags(self):
+        """sum phi_k phi_(k-d)' + its transpose for d = 1 .. HISTORY."""
+        n = len(self.theta)
+        ahead = self.lags[:, :n, :n]
+        return ahead + np.swapaxes(ahead, 1, 2)
+
+
+def _log_decay(alpha):
+    """h = -ln(alpha), NaN unless 0 < alpha < 1 (elementwise)."""
+    return np.where((alpha > 0.0) & (alpha < 1.0), -np.log(np.where(alpha > 0.0, alpha, 1.0)), np.nan)
+
+
+def _coil_parameters(vector, sample_period):
+    """R, L, Km (+ m, B, Fl when the mechanical coefficients follow) from [alpha, beta, gamma(, Km/m, B/m, Fl/m)]
+
+    along the last axis of `vector`.
+    """
+    alpha, beta, gamma = vector[..., 0], vector[..., 1], vector[..., 2]
+    h = _log_decay(alpha)
+    resistance = (1.0 - alpha) / beta
+    km = gamma / beta
+    values = [resistance, resistance * sample_period / h, km]
+    if vector.shape[-1] > 3:
+        km_over_m, b_over_m, fl_over_m = vector[..., 3], vector[..., 4], vector[..., 5]
+        # the intra-sample back-EMF rise acts as the extra mass Km^2 eta Ts / R (regressors.py)
+        values += [km / km_over_m + km * km * emf_lag(h) * sample_period / resistance,
+                   km * b_over_m / km_over_m, km * fl_over_m / km_over_m]
+    return np.stack(values, axis=-1)
+
+
+def _force_parameters(vector, sample_period):
+    """m, B, Fl from [1/m, B/m, Fl/m] along the last axis."""
+    inverse_mass = vector[..., 0]
+    return np.stack([1.0 / inverse_mass, vector[..., 1] / inverse_mass, vector[..., 2] / inverse_mass], axis=-1)
+
+
+def _propagate(function, vector, covariance, sample_period):
+    """function(vector) and its covariance J C J' (central differences at a fraction of each sigma)."""
+    sigma = np.sqrt(np.abs(np.diag(covariance)))
+    steps = np.where(np.isfinite(sigma) & (sigma > 0), 1e-4 * sigma, 1e-8 * (np.abs(vector) + 1e-12))
+    shifts = np.diag(steps)
+    points = function(np.concatenate((vector[None], vector + shifts, vector - shifts)), sample_period)
+    n = len(vector)
+    jacobian = ((points[1:n + 1] - points[n + 1:]) / (2.0 * steps[:, None])).T
+    return points[0], jacobian @ covariance @ jacobian.T
+
+
+def physical(model, statistics, sample_period):
+    """(names, values, covariance) of `model`'s parameters from {regression kind: Statistics}."""
+    with np.errstate(all='ignore'):
+        restricted = {}
+        if 'force' in statistics:
+            T = tie('force', 0.0)
+            restricted['force'] = T, statistics['force'].restrict(T)
+        else:
+            electrical = statistics['electrical']
+            h = _log_decay(electrical.theta[0])
+            for _ in range(_TIE_ITERATIONS):
+                T = tie('electrical', h)
+                restricted['electrical'] = T, electrical.restrict(T)
+                h, previous = _log_decay(restricted['electrical'][1][0]), h
+                if abs(h - previous) <= 1e-13 * h:
+                    break
+            if 'mechanical' in statistics:
+                T = tie('mechanical', h)
+                restricted['mechanical'] = T, statistics['mechanical'].restrict(T)
+        covariances = _noise_covariances(statistics, restricted, sample_period)
+        vector = np.concatenate([theta for _, theta in restricted.values()])
+        covariance = np.zeros((len(vector), len(vector)))
+        start = 0
+        for part in covariances.values():  # the regressions' coefficients taken as independent
+            covariance[start:start + len(part), start:start + len(part)] = part
+            start += len(part)
+        if 'force' in statistics:
+            names, function = MODEL_PARAMETERS['mechanical'], _force_parameters
+        else:
+            names = PARAMETER_NAMES if 'mechanical' in statistics else MODEL_PARAMETERS['electrical']
+            function = _coil_parameters
+        values, covariance = _propagate(function, vector, covariance, sample_period)
+    keep = [names.index(n) for n in MODEL_PARAMETERS[model]]
+    return MODEL_PARAMETERS[model], values[keep], covariance[np.ix_(keep, keep)]
+
+
+def _noise_covariances(statistics, restricted, sample_period):
+    """{kind: covariance of its restricted coefficients} under white noise on the measured signals.
+
+    Each sample's noise reaches a row through the row's construction (regressors.noise_stencils) and, for
+    a restricted estimate theta, reaches the residual through the filter c = dY - dPhi theta; the residual
+    is coloured (a second difference of the position quantisation dominates the mechanical one) and the
+    plain sigma2 P would overstate the uncertainty many times. Instead the noise variances are fitted
+    (non-negative least squares, shared by all regressions of the model) to the residuals' autocovariances
+    at lags 0 .. HISTORY, and the covariance is the sandwich P_r (sum_s sigma_s^2 sum_ab c_a c_b L_(b-a)) P_r
+    with L_d = sum_k phi_k phi_(k-d)' the lagged moments of the (restricted) regressors.
+    """
+    autocorrelations, equations, targets = {}, [], []
+    sources = sorted({name for kind in restricted for name in noise_stencils(kind, sample_period)})
+    for kind, (T, theta) in restricted.items():
+        stats = statistics[kind]
+        coefficients = T.T @ theta
+        autocorrelations[kind] = {name: np.correlate(c, c, 'full')[HISTORY:]  # lags 0 .. HISTORY
+                                  for name, (dy, dphi) in noise_stencils(kind, sample_period).items()
+                                  for c in [dy - dphi @ coefficients]}
+        products = stats.residual_products(T, theta)
+        scale = 1.0 / products[0] if products[0] > 0 else 0.0  # each regression's equations in its own units
+        equations.append(scale * stats.effective_samples * np.column_stack(
+            [autocorrelations[kind].get(name, np.zeros(HISTORY + 1)) for name in sources]))
+        targets.append(scale * products)
+    variances = dict(zip(sources, _nonnegative_least_squares(np.concatenate(equations), np.concatenate(targets))))
+    covariances = {}
+    for kind, (T, theta) in restricted.items():
+        stats = statistics[kind]
+        # sum_ab c_a c_b L_(b-a) = sum_d g_d L_d, g the autocorrelation of c (L_0 = P^-1, L_-d = L_d')
+        middle = sum(variances[name] * (g[0] * stats.information + np.einsum('d,dij->ij', g[1:], stats.regressor_lags))
+                     for name, g in autocorrelations[kind].items())
+        inverse = np.linalg.inv(T @ stats.information @ T.T)
+        covariances[kind] = inverse @ T @ middle @ T.T @ inverse
+    return covariances
+
+
+def _nonnegative_least_squares(A, b):
+    """argmin |A x - b| with x >= 0 for a few columns: the plain solution if it is non-negative, else the best
+    non-negative one on fewer free columns."""
+    candidates = []
+    for free in sorted(itertools.product((True, False), repeat=A.shape[1]), key=sum, reverse=True):
+        x = np.zeros(A.shape[1])
+        if any(free):
+            x[list(free)] = np.linalg.lstsq(A[:, list(free)], b, rcond=None)[0]
+        if np.all(x >= 0):
+            if all(free):
+                return x
+            candidates.append((np.sum((A @ x - b) ** 2), x))
+    return min(candidates, key=lambda c: c[0])[1]
+
+
+@dataclass
+class Trajectory:
+    """Estimates after growing parts of a record: time (s) of the last sample used, {name: array}."""
+
+    time: np.ndarray
+    parameters: dict
+    std: dict
+
+
+@dataclass
+class GreyBoxResult:
+    model: str
+    parameters: dict        # {name: value}, SI; only the parameters the model identifies
+    std: dict               # {name: one-sigma}
+    covariance: np.ndarray  # of the parameters, in the order of `parameters`
+    samples: int
+    sample_period: float
+    forgetting: float
+    trajectory: Trajectory = field(repr=False, default=None)
+
+    def to_dict(self):
+        """The `emla identify` JSON object."""
+        return {'model': self.model, 'samples': self.samples, 'sample_period': self.sample_period,
+                'parameters': dict(self.parameters), 'std': dict(self.std)}
+
+
+def identify(recording, model=None, forgetting=1.0, *, initial_covariance=1e6, points=200, progress=None):
+    """Grey-box parameters of a whole Recording (default model: full for coil signals, mechanical for force).
+
+    The result's trajectory holds the estimates after about `points` growing parts of the record (the
+    last one is the final estimate), for convergence plots. progress: None or a function called with the
+    fraction of the work done (0..1) as it goes.
+    """
+    model, kinds, lam = _checked(recording, model, forgetting)
+    source = recording.source or 'recording'
+    report = progress or (lambda fraction: None)
+    n, ts = len(recording), recording.sample_period
+    every = max(1, (n - HISTORY) // points)
+    tracks, lags = {}, {}
+    for j, kind in enumerate(kinds):
+        phi, y = rows(kind, recording.signals, ts)
+        _check_excitation(phi, kind, source)
+        tracks[kind] = offline.trajectory(phi, y, every, forgetting=lam, initial_covariance=initial_covariance)
+        lags[kind] = _lag_trajectory(np.column_stack((phi, y)), tracks[kind].samples, lam)
+        report((j + 1) / (len(kinds) + 1))
+    ends = next(iter(tracks.values())).samples
+    effective = ends if lam == 1.0 else -np.expm1(ends * math.log(lam)) / (1.0 - lam)
+    values, stds = [], []
+    for j in range(len(ends)):
+        stats = {kind: Statistics(t.theta[j], t.covariance[j], t.residual_variance[j], effective[j], lags[kind][j])
+                 for kind, t in tracks.items()}
+        names, value, covariance = physical(model, stats, ts)
+        values.append(value)
+        stds.append(np.sqrt(np.diag(covariance)))
+        report((len(kinds) + (j + 1) / len(ends)) / (len(kinds) + 1))
+    values, stds = np.array(values), np.array(stds)
+    if not np.all(np.isfinite(values[-1])):
+        raise InputError(f'{source}: the {model} model gives no finite estimate from these data')
+    trajectory = Trajectory(time=recording.start_time + (ends + HISTORY - 1) * ts,
+                            parameters=dict(zip(names, values.T)), std=dict(zip(names, stds.T)))
+    return GreyBoxResult(model=model, parameters={k: float(v) for k, v in zip(names, values[-1])},
+                         std={k: float(s) for k, s in zip(names, stds[-1])}, covariance=covariance,
+                         samples=n, sample_period=ts, forgetting=lam, trajectory=trajectory)
+
+
+def _lag_trajectory(z, ends, forgetting):
+    """LagMoments.moments after rows [0, end) for each end."""
+    moments = LagMoments(z.shape[1], forgetting)
+    states, start = [], 0
+    for end in ends:
+        moments.update(z[start:end])
+        states.append(moments.moments.copy())
+        start = end
+    return states
+
+
+def _checked(recording, model, forgetting):
+    """(model, regression kinds, lambda) for this recording, or InputError naming its source and the problem."""
+    source = recording.source or 'recording'
+    model = model or default_model(recording.signals)
+    if model is None:
+        raise InputError(f'{source}: needs columns voltage, current, position (or force, position); '
+                         f'has {", ".join(recording.signals) or "none"}')
+    try:
+        kinds = regressions_for(model, recording.signals)
+        lam = forgetting_factor(forgetting)
+    except ValueError as exc:
+        raise InputError(f'{source}: {exc}') from None
+    for name in sorted({s for kind in kinds for s in SIGNALS[kind]}):
+        bad = ~np.isfinite(recording.signals[name])
+        if bad.any():
+            raise InputError(f'{source}: non-finite {name} at sample {int(np.argmax(bad))}')
+    if len(recording) - HISTORY < MIN_ROWS:
+        raise InputError(f'{source}: {len(recording)} samples are too few for the {model} model '
+                         f'(needs at least {MIN_ROWS + HISTORY})')
+    return model, kinds, lam
+
+
+def _check_excitation(phi, kind, source):
+    """InputError when the regressors do not excite every coefficient (e.g. the actuator never moved)."""
+    gram = phi.T @ phi
+    scale = np.sqrt(np.diag(gram))
+    if np.any(scale == 0) or np.linalg.cond(gram / np.outer(scale, scale)) > _MAX_CONDITION:
+        raise InputError(f'{source}: the data do not excite the {kind} equation enough to identify '
+                         f'{", ".join(COLUMNS[kind])}')
