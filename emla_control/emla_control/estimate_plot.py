@@ -41,7 +41,7 @@ def plot_estimates(bag, offline, path):
         finite = value[np.isfinite(value)]
         if finite.size:       # the first estimates are far off; frame the last 80 % of the run
             tail = finite[len(finite) // 5:]
-            span = max(np.ptp(tail), 0.05 * abs(tail[-1]))
+            span = max(np.ptp(tail), 0.005 * abs(tail[-1]))
             ax.set_ylim(tail.min() - span, tail.max() + span)
         ax.set_ylabel(LABELS[name])
         ax.grid(alpha=0.3)

@@ -145,7 +145,8 @@ def clean_shared_memory():
 
 @contextlib.contextmanager
 def ros_node(name, domain=None):
-    """(node, executor) of an rclpy node in its own context (domain from the environment unless given).
+    """(node, executor) of an rclpy node in its own context: in the environment's domain, or in `domain`
+    with discovery on this host only (like the launched nodes).
 
     rclpy's signal handlers are not installed: SIGINT raises KeyboardInterrupt between spin_once() calls.
     """
@@ -153,6 +154,8 @@ def ros_node(name, domain=None):
     from rclpy.experimental import EventsExecutor
     from rclpy.signals import SignalHandlerOptions
 
+    if domain is not None:
+        os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'   # read by rclpy.init
     context = rclpy.Context()
     rclpy.init(context=context, domain_id=domain, signal_handler_options=SignalHandlerOptions.NO)
     node = rclpy.create_node(name, context=context, start_parameter_services=False)
@@ -253,7 +256,7 @@ def launch(scenario, duration, bag, node_parameters, *, progress=True):
             graph.start(name, [str(BIN / 'emla'), 'run', name, '--params-file',
                                str(write_params(tmp, name, parameters.get(name, {})))])
         _wait_for_final(graph, monitor, executor, bar)
-        graph.stop([n for n in NODES])
+        graph.stop(NODES)
         graph.stop(['recorder'])
         if graph['recorder'].popen.returncode != 0:
             raise LaunchError(f'the recorder failed: {graph["recorder"].describe_exit()}')

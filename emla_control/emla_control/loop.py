@@ -5,9 +5,9 @@ samples) turns the measurement into a voltage, and the plant holds that voltage 
 Per frame of `frame_samples` samples: the identifier takes the frame's voltages and measurements, and the
 controller is offered the new estimate (if adapting). Everything is seeded, so a run repeats exactly.
 
-The per-sample work uses the plant's and sensor's public per-step APIs around the compiled control law
-(about 3 us a sample); the identifier adds about 2.6 us a sample, mostly its estimate() once a frame. At
-10 kHz a run goes some 15 times faster than real time (12 with the RK4 plant of the thermal effect).
+The per-sample work uses the plant's and sensor's public per-step APIs around the compiled control law:
+about 3 us a sample of CPU (30 times faster than real time at 10 kHz). The identifier's cost is mostly its
+estimate(), taken once a frame (about 2 ms now), hence frames of 50 ms: 16 times real time in all.
 """
 import dataclasses
 
@@ -17,7 +17,7 @@ from emla_sim.parameters import PARAMETER_NAMES
 from emla_sim.recording import Recording
 from emla_sim.sensor import Sensor
 
-FRAME_SAMPLES = 200  # 20 ms at 10 kHz: the identifier's and the parameter updates' rhythm
+FRAME_SAMPLES = 500  # 50 ms at 10 kHz: the identifier's and the parameter updates' rhythm
 
 
 @dataclasses.dataclass

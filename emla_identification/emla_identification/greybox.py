@@ -8,7 +8,7 @@ settles. Stream and batch therefore give the same parameters from the same sampl
 
 Uncertainties are one-sigma. The residuals are far from white (differencing the quantised position colours
 them), so they come from a noise model instead of sigma2 P: white noise on each measured signal, carried
-through the rows, with variances fitted to the residual autocovariances (_noise_covariances); the lagged
+through the rows, with variances fitted to the residual autocovariances (_noise_variances); the lagged
 moments this needs are kept alongside the least-squares state (LagMoments). The coefficients' covariance
 reaches the physical parameters by the delta method, the regressions taken as independent. On the test
 data the reported values match the scatter over noise realisations to within some 30 %.
@@ -100,27 +100,21 @@ def _log_decay(alpha):
 
 
 def _coil_parameters(vector, sample_period):
-    """R, L, Km (+ m, B, Fl when the mechanical coefficients follow) from [alpha, beta, gamma(, Km/m, B/m, Fl/m)]
-
-    along the last axis of `vector`.
-    """
-    alpha, beta, gamma = vector[..., 0], vector[..., 1], vector[..., 2]
+    """R, L, Km, m, B, Fl from [alpha, beta, gamma, Km/m, B/m, Fl/m] along the last axis of `vector`."""
+    alpha, beta, gamma, km_over_m, b_over_m, fl_over_m = np.moveaxis(vector, -1, 0)
     h = _log_decay(alpha)
     resistance = (1.0 - alpha) / beta
     km = gamma / beta
-    values = [resistance, resistance * sample_period / h, km]
-    if vector.shape[-1] > 3:
-        km_over_m, b_over_m, fl_over_m = vector[..., 3], vector[..., 4], vector[..., 5]
-        # the intra-sample back-EMF rise acts as the extra mass Km^2 eta Ts / R (regressors.py)
-        values += [km / km_over_m + km * km * emf_lag(h) * sample_period / resistance,
-                   km * b_over_m / km_over_m, km * fl_over_m / km_over_m]
-    return np.stack(values, axis=-1)
+    # the intra-sample back-EMF rise acts as the extra mass Km^2 eta Ts / R (regressors.py)
+    mass = km / km_over_m + km * km * emf_lag(h) * sample_period / resistance
+    return np.stack([resistance, resistance * sample_period / h, km, mass, km * b_over_m / km_over_m,
+                     km * fl_over_m / km_over_m], axis=-1)
 
 
 def _force_parameters(vector, sample_period):
     """m, B, Fl from [1/m, B/m, Fl/m] along the last axis."""
-    inverse_mass = vector[..., 0]
-    return np.stack([1.0 / inverse_mass, vector[..., 1] / inverse_mass, vector[..., 2] / inverse_mass], axis=-1)
+    inverse_mass, b_over_m, fl_over_m = np.moveaxis(vector, -1, 0)
+    return np.stack([1.0 / inverse_mass, b_over_m / inverse_mass, fl_over_m / inverse_mass], axis=-1)
 
 
 def _propagate(function, vector, covariance, sample_period):
@@ -137,70 +131,85 @@ def _propagate(function, vector, covariance, sample_period):
 def physical(model, statistics, sample_period):
     """(names, values, covariance) of `model`'s parameters from {regression kind: Statistics}."""
     with np.errstate(all='ignore'):
-        restricted = {}
-        if 'force' in statistics:
-            T = tie('force', 0.0)
-            restricted['force'] = T, statistics['force'].restrict(T)
-        else:
-            electrical = statistics['electrical']
-            h = _log_decay(electrical.theta[0])
-            for _ in range(_TIE_ITERATIONS):
-                T = tie('electrical', h)
-                restricted['electrical'] = T, electrical.restrict(T)
-                h, previous = _log_decay(restricted['electrical'][1][0]), h
-                if abs(h - previous) <= 1e-13 * h:
-                    break
-            if 'mechanical' in statistics:
-                T = tie('mechanical', h)
-                restricted['mechanical'] = T, statistics['mechanical'].restrict(T)
-        covariances = _noise_covariances(statistics, restricted, sample_period)
+        restricted = _restricted(statistics)
+        variances = _noise_variances(statistics, restricted, sample_period)
+        covariances = _coefficient_covariances(statistics, restricted, variances, sample_period)
         vector = np.concatenate([theta for _, theta in restricted.values()])
         covariance = np.zeros((len(vector), len(vector)))
         start = 0
         for part in covariances.values():  # the regressions' coefficients taken as independent
             covariance[start:start + len(part), start:start + len(part)] = part
             start += len(part)
-        if 'force' in statistics:
-            names, function = MODEL_PARAMETERS['mechanical'], _force_parameters
-        else:
-            names = PARAMETER_NAMES if 'mechanical' in statistics else MODEL_PARAMETERS['electrical']
-            function = _coil_parameters
+        names, function = ((MODEL_PARAMETERS['mechanical'], _force_parameters) if 'force' in statistics
+                           else (PARAMETER_NAMES, _coil_parameters))
         values, covariance = _propagate(function, vector, covariance, sample_period)
     keep = [names.index(n) for n in MODEL_PARAMETERS[model]]
     return MODEL_PARAMETERS[model], values[keep], covariance[np.ix_(keep, keep)]
 
 
-def _noise_covariances(statistics, restricted, sample_period):
-    """{kind: covariance of its restricted coefficients} under white noise on the measured signals.
+def _restricted(statistics):
+    """{kind: (T, theta_r)}: each regression with its h-dependent coefficient tied, h from the electrical one."""
+    if 'force' in statistics:
+        T = tie('force', 0.0)
+        return {'force': (T, statistics['force'].restrict(T))}
+    electrical = statistics['electrical']
+    h = _log_decay(electrical.theta[0])
+    for _ in range(_TIE_ITERATIONS):
+        T = tie('electrical', h)
+        restricted = {'electrical': (T, electrical.restrict(T))}
+        h, previous = _log_decay(restricted['electrical'][1][0]), h
+        if abs(h - previous) <= 1e-13 * h:
+            break
+    T = tie('mechanical', h)
+    restricted['mechanical'] = T, statistics['mechanical'].restrict(T)
+    return restricted
 
-    Each sample's noise reaches a row through the row's construction (regressors.noise_stencils) and, for
-    a restricted estimate theta, reaches the residual through the filter c = dY - dPhi theta; the residual
-    is coloured (a second difference of the position quantisation dominates the mechanical one) and the
-    plain sigma2 P would overstate the uncertainty many times. Instead the noise variances are fitted
-    (non-negative least squares, shared by all regressions of the model) to the residuals' autocovariances
-    at lags 0 .. HISTORY, and the covariance is the sandwich P_r (sum_s sigma_s^2 sum_ab c_a c_b L_(b-a)) P_r
-    with L_d = sum_k phi_k phi_(k-d)' the lagged moments of the (restricted) regressors.
+
+def _noise_filters(kind, T, theta, sample_period):
+    """{signal: c}: the residual of row k with coefficients T' theta gets sum_j c_j (noise of sample k - 2 + j)."""
+    coefficients = T.T @ theta
+    return {name: dy - dphi @ coefficients for name, (dy, dphi) in noise_stencils(kind, sample_period).items()}
+
+
+def _autocorrelation(c):
+    return np.correlate(c, c, 'full')[HISTORY:]  # lags 0 .. HISTORY
+
+
+def _noise_variances(statistics, restricted, sample_period):
+    """{signal: variance} of white noise on the measured signals, fitted to the residual autocovariances.
+
+    Noise on each sample reaches the residuals through the rows' construction (regressors.noise_stencils);
+    the variances that explain the residuals' autocovariances at lags 0 .. HISTORY best are found by
+    non-negative least squares, shared by all regressions of the model (the same sensors feed them all).
     """
-    autocorrelations, equations, targets = {}, [], []
     sources = sorted({name for kind in restricted for name in noise_stencils(kind, sample_period)})
+    equations, targets = [], []
     for kind, (T, theta) in restricted.items():
         stats = statistics[kind]
-        coefficients = T.T @ theta
-        autocorrelations[kind] = {name: np.correlate(c, c, 'full')[HISTORY:]  # lags 0 .. HISTORY
-                                  for name, (dy, dphi) in noise_stencils(kind, sample_period).items()
-                                  for c in [dy - dphi @ coefficients]}
+        filters = _noise_filters(kind, T, theta, sample_period)
         products = stats.residual_products(T, theta)
         scale = 1.0 / products[0] if products[0] > 0 else 0.0  # each regression's equations in its own units
         equations.append(scale * stats.effective_samples * np.column_stack(
-            [autocorrelations[kind].get(name, np.zeros(HISTORY + 1)) for name in sources]))
+            [_autocorrelation(filters[name]) if name in filters else np.zeros(HISTORY + 1) for name in sources]))
         targets.append(scale * products)
-    variances = dict(zip(sources, _nonnegative_least_squares(np.concatenate(equations), np.concatenate(targets))))
+    return dict(zip(sources, _nonnegative_least_squares(np.concatenate(equations), np.concatenate(targets))))
+
+
+def _coefficient_covariances(statistics, restricted, variances, sample_period):
+    """{kind: covariance of its restricted coefficients} under the fitted white noise.
+
+    The residuals are coloured (the second difference of the quantised position dominates the mechanical
+    one; sigma2 P would overstate B's uncertainty some 60 times), so the covariance is the sandwich
+    P_r (sum_s sigma_s^2 sum_k psi_k psi_k') P_r, psi_k = sum_j c_j phi_r,(k-j) for the noise filter c of
+    signal s: in lagged moments L_d = sum_k phi_k phi_(k-d)', sum_k psi_k psi_k' = sum_d g_d L_d with g the
+    autocorrelation of c (L_0 = P^-1, L_-d = L_d').
+    """
     covariances = {}
     for kind, (T, theta) in restricted.items():
         stats = statistics[kind]
-        # sum_ab c_a c_b L_(b-a) = sum_d g_d L_d, g the autocorrelation of c (L_0 = P^-1, L_-d = L_d')
         middle = sum(variances[name] * (g[0] * stats.information + np.einsum('d,dij->ij', g[1:], stats.regressor_lags))
-                     for name, g in autocorrelations[kind].items())
+                     for name, c in _noise_filters(kind, T, theta, sample_period).items()
+                     for g in [_autocorrelation(c)])
         inverse = np.linalg.inv(T @ stats.information @ T.T)
         covariances[kind] = inverse @ T @ middle @ T.T @ inverse
     return covariances

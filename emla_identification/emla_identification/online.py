@@ -69,7 +69,8 @@ class OnlineIdentifier:
             errors = errors[np.isfinite(errors)]  # the recursion skips non-finite samples
             if kind == 'electrical' and len(errors):
                 # a-priori current error over beta = voltage-equation error (V)
-                self._residual_rms = math.sqrt(errors @ errors / len(errors)) / rls.theta[1]
+                with np.errstate(all='ignore'):  # NaN before beta is identified
+                    self._residual_rms = float(np.sqrt(errors @ errors / len(errors)) / rls.theta[1])
         self._tail = {name: values[-HISTORY:] for name, values in frame.items()}
         self._samples += lengths.pop()
 

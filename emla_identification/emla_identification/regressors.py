@@ -61,20 +61,21 @@ MODELS = ('electrical', 'mechanical', 'full')
 def regressions_for(model, available):
     """The regressions `model` needs given the available signal names, or a ValueError naming what is missing.
 
-    electrical: voltage, current, position. full: the same (both equations, Km shared). mechanical: force
-    and position if there is a force signal, else the coil signals (both equations, Km from the electrical).
+    mechanical: force and position if there is a force signal. Otherwise every model needs the coil signals
+    (voltage, current, position) and uses both equations: full shares Km between them, mechanical takes Km
+    from the electrical one, and electrical uses the mechanical one to tell current noise from position
+    noise in its uncertainties (greybox._noise_variances).
     """
     if model not in MODELS:
         raise ValueError(f'unknown model {model!r}; choose one of {", ".join(MODELS)}')
     available = set(available)
     if model == 'mechanical' and available >= set(SIGNALS['force']):
         return ('force',)
-    kinds = ('electrical',) if model == 'electrical' else ('electrical', 'mechanical')
     missing = [s for s in SIGNALS['electrical'] if s not in available]
     if missing:
         need = 'voltage, current, position' + (' (or force, position)' if model == 'mechanical' else '')
         raise ValueError(f'model {model} needs {need}; missing {", ".join(missing)}')
-    return kinds
+    return ('electrical', 'mechanical')
 
 
 def default_model(available):

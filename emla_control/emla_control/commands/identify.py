@@ -60,7 +60,10 @@ def run(args):
         if args.json:
             staged.append(_stage(args.json, lambda temporary: Path(temporary).write_text(text)))
         for temporary, final in staged:
-            os.replace(temporary, final)
+            try:
+                os.replace(temporary, final)
+            except OSError as exc:
+                raise InputError(f'{final}: cannot write: {exc.strerror or exc}') from None
     finally:
         for temporary, _ in staged:
             if os.path.exists(temporary):

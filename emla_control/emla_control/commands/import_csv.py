@@ -19,13 +19,16 @@ def run(args):
     from emla_sim.recording import read_csv
     recording = read_csv(args.csv)
     bag = Path(args.bagdir)
-    existed = bag.exists()
+    existed = bag.is_dir()
+    fresh = not existed or not any(bag.iterdir())  # else write_recording refuses it, and it is left alone
     try:
         write_recording(recording, bag, custom_data={'imported_from': Path(args.csv).name})
     except BaseException:
         # an interrupted or failed import must not leave a bag that reads as complete
-        if bag.exists() and not existed:
+        if fresh and bag.exists():
             shutil.rmtree(bag)
+            if existed:
+                bag.mkdir()
         raise
     print(f'{bag}: {len(recording)} samples of {", ".join(recording.signals)} '
           f'at {1.0 / recording.sample_period:g} Hz')

@@ -9,6 +9,7 @@ each case over the last cycle, as the EMLA paper's Figures 6-7.
 import json
 import os
 import tempfile
+import textwrap
 from pathlib import Path
 
 from emla_sim.errors import InputError
@@ -81,7 +82,7 @@ def plot(result, path):
     for ax in (ax_x, ax_e, ax_i):
         ax.grid(True, alpha=0.3)
         ax.legend(loc='upper right', fontsize=8)
-    fig.suptitle(f'{result.scenario.name}: {result.scenario.description}', fontsize=10)
+    fig.suptitle(textwrap.fill(f'{result.scenario.name}: {result.scenario.description}', 90), fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110, format='png')
     plt.close(fig)

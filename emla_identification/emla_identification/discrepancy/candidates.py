@@ -63,6 +63,7 @@ class Candidate:
     parameters: ClassVar[tuple] = ()   # names of p's entries
     units: ClassVar[tuple] = ()
     acts_on: ClassVar[tuple] = ()      # regressions (regressors.py kinds) the terms enter
+    signs: ClassVar[tuple] = ()        # per parameter: +1 / -1 when physics fixes its sign, 0 when it does not
 
     def variants(self, data):
         """Configurations to search on these data (each a Candidate); default: this one."""
@@ -105,6 +106,7 @@ class CoulombFriction(Candidate):
     parameters: ClassVar[tuple] = ('coulomb_force',)
     units: ClassVar[tuple] = ('N',)
     acts_on: ClassVar[tuple] = ('mechanical', 'force')
+    signs: ClassVar[tuple] = (1,)
     presliding: float = 0.0   # m
     direction: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
 
@@ -141,6 +143,7 @@ class ReturnSpring(Candidate):
     parameters: ClassVar[tuple] = ('spring_stiffness',)
     units: ClassVar[tuple] = ('N/m',)
     acts_on: ClassVar[tuple] = ('mechanical', 'force')
+    signs: ClassVar[tuple] = (1,)
     center: float = 0.0
 
     def variants(self, data):
@@ -161,6 +164,7 @@ class ResistanceDrift(Candidate):
     parameters: ClassVar[tuple] = ('resistance_rise',)
     units: ClassVar[tuple] = ('ohm',)
     acts_on: ClassVar[tuple] = ('electrical',)
+    signs: ClassVar[tuple] = (1,)
     thermal_time_constant: float = 0.0   # s
     heating: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
 
@@ -191,6 +195,7 @@ class InductanceSaturation(Candidate):
     parameters: ClassVar[tuple] = ('inductance_quadratic',)
     units: ClassVar[tuple] = ('H/A^2',)
     acts_on: ClassVar[tuple] = ('electrical',)
+    signs: ClassVar[tuple] = (-1,)
 
     def inductance(self, s):
         return (s.current ** 2)[None]
@@ -213,6 +218,7 @@ class ForceConstantVariation(Candidate):
     parameters: ClassVar[tuple] = ('emf_constant_slope', 'emf_constant_curvature')
     units: ClassVar[tuple] = ('N/(A m)', 'N/(A m^2)')
     acts_on: ClassVar[tuple] = ('electrical', 'mechanical')
+    signs: ClassVar[tuple] = (0, 0)
     center: float = 0.0
 
     def variants(self, data):

@@ -25,6 +25,7 @@ residuals are coloured (by correlations shorter than a block).
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.signal import lfilter
 
 from emla_identification.greybox import _coil_parameters, _force_parameters
 from emla_identification.regressors import emf_lag, rows, tie
@@ -78,7 +79,10 @@ class ElectricalRows:
         return np.hstack(blocks)
 
 
-def mechanical_rows(data, model, candidates):
+PREFILTER = 0.9
+
+
+def mechanical_rows(data, model, candidates, prefilter=True):
     """(Phi tied, Y, candidate force columns) of the mechanical (or force) regression about `model`."""
     kind = data.kinds[-1]
     phi, y = rows(kind, data.signals, data.sample_period)
@@ -91,16 +95,21 @@ def mechanical_rows(data, model, candidates):
             blocks.append(np.zeros((len(y), len(c.parameters))))
         else:
             blocks.append(-(f[:, 1:-3] + 4.0 * f[:, 2:-2] + f[:, 3:-1]).T / (6.0 * model['mass']))
-    return phi, y, np.hstack(blocks)
+    extra = np.hstack(blocks)
+    if prefilter and PREFILTER:
+        rho = PREFILTER
+        a = [1.0, -2.0 * rho, rho * rho]
+        phi, y, extra = (lfilter([1.0 - rho], a, v, axis=0) for v in (phi, y, extra))
+    return phi, y, extra
 
 
-def design(data, model, candidates):
+def design(data, model, candidates, prefilter=True):
     """{kind: (Phi tied, Y, candidate columns)} about `model`."""
     out = {}
     if data.electrical:
         electrical = ElectricalRows(data, model)
         out['electrical'] = (electrical.phi, electrical.y, electrical.columns(candidates))
-    out[data.kinds[-1]] = mechanical_rows(data, model, candidates)
+    out[data.kinds[-1]] = mechanical_rows(data, model, candidates, prefilter)
     return out
 
 
@@ -131,7 +140,8 @@ class Fit:
     def residuals(self):
         """{kind: one-step residual of each regression row (rows: data.regression_rows)}."""
         return {kind: y - phi @ self.theta[kind] - extra @ self.added
-                for kind, (phi, y, extra) in design(self.data, self.linearised_about, self.candidates).items()}
+                for kind, (phi, y, extra) in design(self.data, self.linearised_about, self.candidates,
+                                                    prefilter=False).items()}
 
 
 def fit(data, candidates=(), reference=None, *, relinearise=True):

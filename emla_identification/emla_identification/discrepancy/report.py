@@ -4,6 +4,7 @@ from pathlib import Path
 import numpy as np
 
 from .fit import FOLDS
+from .residuals import CONFIDENCE
 from .workflow import MIN_BLOCKS, MIN_SCORE, MIN_T, localise
 
 UNITS = {'current': 'A', 'position': 'm', 'voltage': 'V', 'force': 'N', 'time': 's', 'velocity': 'm/s',
@@ -78,7 +79,7 @@ def _residual_figure(plt, before, after):
             if j == 0:
                 ax.set_ylabel(f'{kind}: mean {before[kind].quantity} residual ({UNITS[before[kind].quantity]})')
     axes[0, 0].legend(fontsize=8)
-    figure.suptitle('One-step residuals binned against the signals (bars: +-2 standard errors)')
+    figure.suptitle('One-step residuals (1 ms means) binned against the signals (bars: +-2 standard errors)')
     figure.tight_layout()
     return figure
 
@@ -142,8 +143,12 @@ def _markdown(diagnosis, before):
     for kind, loc in before.items():
         lines.append(f'- {kind}: {100 * loc.whiteness.outside:.0f} % of autocorrelation lags and '
                      f'{100 * loc.cross.outside:.0f} % of cross-correlation lags with {loc.input_name} outside '
-                     f'the {100 * 0.99:.0f} % bounds (nominal model).')
-    lines += ['', '![correlation](correlation.png)', '', '## Parameters', '',
+                     f'the {100 * CONFIDENCE:.0f} % bounds (nominal model; peak cross-correlation at lag '
+                     f'{loc.cross.peak_lag}).')
+    lines += ['', 'The sensor noise gives the residuals structure of their own at lags 1-2 (current noise enters '
+              'both sides of the electrical equation, the second difference of position noise the mechanical '
+              'one); what matters is the correlation beyond that and with the input.', '',
+              '![correlation](correlation.png)', '', '## Parameters', '',
               '| parameter | nominal | re-identified with the effect |', '|---|---|---|']
     for name, value in diagnosis.nominal.parameters.items():
         if name != 'sample_period':

@@ -62,18 +62,22 @@ class Binned:
     centers: np.ndarray
     mean: np.ndarray
     error: np.ndarray    # standard error of each bin's mean (white-residual assumption: a lower bound)
+    # centers: mean of z in each bin
     count: np.ndarray
 
 
-def binned(e, z, bins=24):
-    """Mean residual in bins of z holding equal numbers of samples."""
-    edges = np.unique(np.quantile(z, np.linspace(0.0, 1.0, bins + 1)))
-    which = np.clip(np.searchsorted(edges, z, side='right') - 1, 0, len(edges) - 2)
-    count = np.bincount(which, minlength=len(edges) - 1).astype(float)
-    total = np.bincount(which, e, minlength=len(edges) - 1)
-    squares = np.bincount(which, e * e, minlength=len(edges) - 1)
-    centers = np.bincount(which, z, minlength=len(edges) - 1)
-    with np.errstate(invalid='ignore', divide='ignore'):
-        mean = total / count
-        spread = np.sqrt(np.maximum(squares / count - mean ** 2, 0.0))
-        return Binned(centers / count, mean, spread / np.sqrt(count), count)
+def binned(e, z, bins=24, min_count=50):
+    """Mean residual in equal-width bins of z over its central 99 % (bins with < min_count samples dropped)."""
+    low, high = np.quantile(z, [0.005, 0.995])
+    if high <= low:
+        low, high = low - 0.5, high + 0.5
+    inside = (z >= low) & (z <= high)
+    e, z = e[inside], z[inside]
+    which = np.minimum(((z - low) / (high - low) * bins).astype(int), bins - 1)
+    count = np.bincount(which, minlength=bins).astype(float)
+    keep = count >= min_count
+    total, squares, centers = (np.bincount(which, w, minlength=bins)[keep] for w in (e, e * e, z))
+    count = count[keep]
+    mean = total / count
+    spread = np.sqrt(np.maximum(squares / count - mean ** 2, 0.0))
+    return Binned(centers / count, mean, spread / np.sqrt(count), count)

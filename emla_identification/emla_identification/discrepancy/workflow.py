@@ -22,6 +22,7 @@ Fitting noise cannot pass 1 and 2 together: a term that only fits noise predicts
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.ndimage import uniform_filter1d
 
 from emla_sim.errors import InputError
 
@@ -32,8 +33,9 @@ from .residuals import binned, cross_correlation, whiteness
 from .simulate import MECHANICAL_TIME, predict
 
 MIN_BLOCKS = 9
-MIN_SCORE = 0.01
+MIN_SCORE = 0.05
 MIN_T = 3.0
+SMOOTHING = 1e-3   # s, of the residuals binned against the signals
 
 METHOD = ('k-step-ahead prediction of each subsystem from its measured inputs: current from the measured '
           'voltage and position-derived back-EMF velocity (horizon 5 L/R, a free run in effect), position from '
@@ -54,10 +56,11 @@ class Assessment:
     parameters: dict            # {name: (value, one-sigma)}
     settings: dict
     resolved: bool
+    plausible: bool
 
     @property
     def significant(self):
-        return self.blocks_improved >= MIN_BLOCKS and self.score >= MIN_SCORE and self.resolved
+        return self.blocks_improved >= MIN_BLOCKS and self.score >= MIN_SCORE and self.resolved and self.plausible
 
     @property
     def evidence(self):
@@ -115,6 +118,7 @@ class Diagnosis:
         }
         if second:
             out['second_effect']['added_parameters'] = {k: v for k, (v, _) in second.parameters.items()}
+            out['second_effect']['gap_after'] = {s: round(p.nrmse, 6) for s, p in predict(second.fit).items()}
         return out
 
 
@@ -157,8 +161,9 @@ def assess(base, candidate):
     values, stds = result.added[part], result.added_std[part]
     parameters = best.reported(values, stds, result.parameters)
     resolved = not len(values) or bool(np.any(np.abs(values) >= MIN_T * stds))
+    plausible = all(sign * value >= 0 for sign, value in zip(candidate.signs, values))
     return Assessment(candidate.name, result, float(gain.sum()), dict(zip(kinds, map(float, gain.sum(axis=0)))),
-                      int(np.sum(gain.sum(axis=1) > 0)), parameters, best.settings(), resolved)
+                      int(np.sum(gain.sum(axis=1) > 0)), parameters, best.settings(), resolved, plausible)
 
 
 @dataclass
@@ -172,7 +177,7 @@ class Localisation:
     whiteness: object           # residuals.Correlation
     input_name: str
     cross: object               # residuals.Correlation with the input
-    bins: dict                  # signal name -> residuals.Binned
+    bins: dict                  # signal name -> residuals.Binned of the residual smoothed over SMOOTHING
 
 
 def localise(result):
@@ -192,7 +197,10 @@ def localise(result):
         else:
             scale, quantity, input_name = p['mass'], 'force', drive
         e = residual * scale
+        # the sensor noise in a one-step residual is mostly high-frequency: a centred 1 ms mean leaves
+        # the effects (which vary more slowly) for the binned plots
+        smooth = uniform_filter1d(e, max(1, int(round(SMOOTHING / ts))), mode='nearest')
         out[kind] = Localisation(kind, quantity, k, e, whiteness(e), input_name,
                                  cross_correlation(e, data.signals[input_name][k]),
-                                 {name: binned(e, z) for name, z in against.items()})
+                                 {name: binned(smooth, z) for name, z in against.items()})
     return out

@@ -18,6 +18,7 @@ import time
 import rclpy
 from builtin_interfaces.msg import Time
 from emla_msgs.msg import ParameterEstimate, SampleFrame
+from rclpy.exceptions import ParameterException
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -45,7 +46,7 @@ QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.R
 SPECS = [
     common.Spec('bag', '', 'output rosbag2 directory (must not exist or be empty)'),
     common.Spec('scenario', '', 'scenario name stored in the bag custom data'),
-    common.Spec('split_size', 256 * 1024, 'bytes of messages per MCAP split; a SIGKILL loses at most one, B',
+    common.Spec('split_size', 128 * 1024, 'bytes of messages per MCAP split; a SIGKILL loses at most one, B',
                 4096, 2**30),
     common.Spec('hold_start', False, 'join the plant start barrier only once every other topic has a publisher'),
     common.Spec('drain_time', 0.3, 'after SIGINT/SIGTERM, record until no message came for this long, s',
@@ -74,7 +75,7 @@ class Recorder(Node):
                              custom_data={'scenario': self.config.scenario})
         self.received = 0
         self.topic_subscriptions = [self._subscribe(topic) for topic in TOPICS
-                               if topic != common.START_TOPIC or not self.config.hold_start]
+                                    if topic != common.START_TOPIC or not self.config.hold_start]
         if self.config.hold_start:
             self.holding = self.create_timer(0.02, self._join_start)
         self.get_logger().info(f'recording {len(TOPICS)} topics into {self.config.bag}')
@@ -123,7 +124,7 @@ def main(args=None):
         signal.signal(signum, lambda *_: stopping.append(True))
     try:
         recorder = Recorder()
-    except (InputError, ValueError) as error:
+    except (InputError, ValueError, ParameterException) as error:
         print(f'recorder: error: {error}', file=sys.stderr)
         rclpy.shutdown()
         return 2

@@ -1,0 +1,141 @@
+"""`emla launch`: the graph of processes, its bag (two peer readers), estimates, determinism, clean stops."""
+import json
+import os
+import re
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mcap_ros2.reader import read_ros2_messages
+from rosbags.highlevel import AnyReader
+
+from emla_control import scenarios
+from emla_sim.bag import read_bag, typestore
+from ros_isolation import VENV_BIN, processes
+
+pytestmark = pytest.mark.timeout(300)
+DURATION = 2.0
+CORE = ('resistance', 'inductance', 'emf_constant', 'mass')
+
+
+def shm_in_use():
+    """Names of the /dev/shm files some live process has open or mapped."""
+    names = set()
+    for proc in Path('/proc').iterdir():
+        try:
+            names.update(Path(os.readlink(fd)).name for fd in (proc / 'fd').iterdir())
+            names.update(line.rsplit('/', 1)[-1] for line in (proc / 'maps').read_text().splitlines()
+                         if '/dev/shm/' in line)
+        except OSError:
+            continue
+    return names
+
+
+def shm_segments():
+    """Fast DDS shared-memory segments (one per participant, removed when it ends cleanly; the port files
+    beside them are kept by design)."""
+    return {p.name for p in Path('/dev/shm').iterdir() if re.fullmatch(r'fastrtps_[0-9a-f]{16}', p.name)}
+
+
+def alive(pid):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    return True
+
+
+@pytest.fixture(scope='module')
+def runs(tmp_path_factory):
+    """Two launches of the default scenario, side by side (each takes its own ROS domain)."""
+    tmp = tmp_path_factory.mktemp('launch')
+    before = shm_segments()
+    with processes() as start:
+        procs = [start([str(VENV_BIN / 'emla'), 'launch', '--duration', str(DURATION), '--bag', str(tmp / f'bag{k}'),
+                        '--json', str(tmp / f'run{k}.json')]) for k in range(2)]
+        outputs = [proc.communicate(timeout=240) for proc in procs]
+    for proc, (_, err) in zip(procs, outputs):
+        assert proc.returncode == 0, err
+    return {'tmp': tmp, 'shm_before': before, 'stderr': [err for _, err in outputs],
+            'summaries': [json.loads((tmp / f'run{k}.json').read_text()) for k in range(2)]}
+
+
+def test_summary_names_the_processes_and_leaves_nothing_behind(runs):
+    summary = runs['summaries'][0]
+    assert set(summary) == {'scenario', 'duration', 'wall_time', 'realtime_factor', 'final_parameters',
+                            'true_parameters', 'bag', 'nodes'}
+    assert summary['scenario'] == 'default' and summary['duration'] == DURATION
+    assert summary['realtime_factor'] > 0 and summary['wall_time'] > DURATION / summary['realtime_factor'] - 1
+    names = [n['name'] for n in summary['nodes']]
+    assert sorted(names) == ['controller', 'identifier', 'plant', 'recorder', 'sensor']
+    assert len({n['pid'] for s in runs['summaries'] for n in s['nodes']}) == 10
+    assert not any(alive(n['pid']) for s in runs['summaries'] for n in s['nodes'])
+    assert not (shm_segments() - runs['shm_before']) - shm_in_use()
+    assert 'simulated' in runs['stderr'][0]          # progress
+
+
+def test_bag_reads_with_rosbags_and_mcap_ros2(runs):
+    bag = Path(runs['summaries'][0]['bag'])
+    with AnyReader([bag], default_typestore=typestore()) as reader:
+        current = [c for c in reader.connections if c.topic == '/emla/current']
+        samples = sum(len(reader.deserialize(raw, c.msgtype).data) for c, _, raw in reader.messages(current))
+        counts = {c.topic: c.msgcount for c in reader.connections}
+    assert samples >= DURATION * 10_000
+    assert counts['/emla/parameters'] >= DURATION / 0.01 and counts['/emla/plant/done'] == 1
+    peer = [m.ros_msg for f in sorted(bag.glob('*.mcap')) for m in read_ros2_messages(str(f))
+            if m.channel.topic == '/emla/parameters']
+    assert len(peer) == counts['/emla/parameters']
+    assert peer[-1].resistance == runs['summaries'][0]['final_parameters']['resistance']
+    assert peer[-1].samples_used == DURATION * 10_000
+
+
+def test_final_online_estimates_are_within_3_percent_of_the_truth(runs):
+    summary = runs['summaries'][0]
+    for name in CORE:
+        assert summary['final_parameters'][name] == pytest.approx(summary['true_parameters'][name], rel=0.03)
+
+
+def test_offline_identification_of_the_bag_gives_the_online_estimate(runs):
+    scenario = scenarios.get('default')
+    forgetting = 1 - scenario.sample_period / scenario.memory_time     # the identifier's memory
+    out = runs['tmp'] / 'identify.json'
+    subprocess.run([str(VENV_BIN / 'emla'), 'identify', runs['summaries'][0]['bag'], '--forgetting', repr(forgetting),
+                    '--json', str(out)], check=True, capture_output=True, timeout=120)
+    offline = json.loads(out.read_text())
+    assert offline['samples'] == DURATION * 10_000
+    for name, value in runs['summaries'][0]['final_parameters'].items():
+        assert offline['parameters'][name] == pytest.approx(value, rel=1e-6, abs=1e-9)
+
+
+def test_the_same_scenario_twice_gives_identical_samples(runs):
+    first, second = (read_bag(s['bag']).recording.signals for s in runs['summaries'])
+    for name in ('current', 'position', 'voltage'):
+        np.testing.assert_array_equal(first[name], second[name])
+    assert runs['summaries'][0]['final_parameters'] == runs['summaries'][1]['final_parameters']
+
+
+def test_a_killed_recorder_stops_the_launch_and_leaves_a_readable_bag(tmp_path):
+    bag = tmp_path / 'bag'
+    with processes() as start:
+        launch = start([str(VENV_BIN / 'emla'), 'launch', '--duration', '60', '--bag', str(bag)])
+        deadline = time.monotonic() + 120
+        while not (bag / 'metadata.yaml').exists():          # the first split is written
+            assert launch.poll() is None and time.monotonic() < deadline
+            time.sleep(0.1)
+        children = subprocess.run(['ps', '-o', 'pid=,args=', '--ppid', str(launch.pid)], capture_output=True,
+                                  text=True).stdout.splitlines()
+        pids = {int(line.split()[0]): line for line in children}
+        recorder = next(pid for pid, line in pids.items() if 'run recorder' in line)
+        os.kill(recorder, signal.SIGKILL)
+        _, err = launch.communicate(timeout=60)
+    assert launch.returncode == 1
+    lines = [line for line in err.replace('\r', '\n').splitlines() if line.startswith('emla launch:')]
+    assert len(lines) == 1 and f'recorder (pid {recorder}) was killed by SIGKILL' in lines[0]
+    assert len(pids) == 5 and not any(alive(pid) for pid in pids)
+    with AnyReader([bag], default_typestore=typestore()) as reader:
+        assert sum(c.msgcount for c in reader.connections) > 0
+    current = read_bag(bag).recording.signals['current']
+    assert len(current) > 0 and np.all(np.isfinite(current))

@@ -1,0 +1,80 @@
+"""`emla simulate`, `emla play` into a live identifier node, and `emla echo`."""
+import json
+import subprocess
+
+import pytest
+import yaml
+
+from emla_sim.bag import read_bag
+from ros_isolation import VENV_BIN, processes
+
+pytestmark = pytest.mark.timeout(300)
+EMLA = str(VENV_BIN / 'emla')
+SIGNALS = ('/emla/voltage', '/emla/current', '/emla/position')
+
+
+@pytest.fixture(scope='module')
+def simulated(tmp_path_factory):
+    bag = tmp_path_factory.mktemp('simulate') / 'bag'
+    subprocess.run([EMLA, 'simulate', '--duration', '1', '--bag', str(bag)], check=True, capture_output=True,
+                   timeout=120)
+    return bag
+
+
+def test_simulate_writes_the_scenario_with_estimates_and_truth(simulated):
+    contents = read_bag(simulated)
+    assert len(contents.recording) == 9999          # the loop's 10000 samples but the last
+    assert {'voltage', 'current', 'position', 'reference', 'plant/current'} <= set(contents.recording.signals)
+    assert contents.metadata['scenario'] == 'default' and float(contents.metadata['true_mass']) == 0.036
+    assert contents.estimates[-1][1]['resistance'] == pytest.approx(4.0, rel=0.03)
+    assert contents.truth[-1][1]['resistance'] == 4.0
+
+
+def test_a_live_identifier_fed_by_play_agrees_with_offline_identification(simulated, tmp_path):
+    params = tmp_path / 'identifier.yaml'
+    params.write_text(yaml.safe_dump({'/emla/identifier': {'ros__parameters': {'use_sim_time': True}}}))
+    with processes() as start:
+        identifier = start([EMLA, 'run', 'identifier', '--params-file', str(params)])
+        play = start([EMLA, 'play', str(simulated), '--rate', '0', '--wait', '60', '--topics', *SIGNALS])
+        _, err = play.communicate(timeout=180)
+        assert play.returncode == 0, err
+        assert 'paced by the live identifier' in err
+        echo = start([EMLA, 'echo', '/emla/parameters', '--count', '1', '--timeout', '30'])
+        out, err = echo.communicate(timeout=60)
+        assert echo.returncode == 0 and identifier.poll() is None, err
+    online = next(yaml.safe_load_all(out))
+    assert online['header']['stamp'] == {'sec': 0, 'nanosec': 999_900_000} and online['samples_used'] == 9999
+    offline = json.loads(subprocess.run([EMLA, 'identify', str(simulated)], check=True, capture_output=True,
+                                        text=True, timeout=120).stdout)
+    for name, value in offline['parameters'].items():
+        assert online[name] == pytest.approx(value, rel=1e-9)
+
+
+def test_echo_prints_yaml_documents_with_long_arrays_shortened(simulated):
+    with processes() as start:
+        echo = start([EMLA, 'echo', '/emla/current', '--count', '3', '-l', '5', '--timeout', '60'])
+        full = start([EMLA, 'echo', '/emla/position', '--count', '2', '-l', '5', '--full-length', '--timeout', '60'])
+        play = start([EMLA, 'play', str(simulated), '--rate', '1', '--wait', '60',
+                      '--topics', '/emla/current', '/emla/position'])
+        outputs = [proc.communicate(timeout=120) for proc in (echo, full, play)]
+    assert [p.returncode for p in (echo, full, play)] == [0, 0, 0], outputs
+    docs = [d for d in yaml.safe_load_all(outputs[0][0]) if d]
+    assert len(docs) == 3 and outputs[0][0].count('---\n') == 3
+    assert docs[0]['sample_period'] == 1e-4 and docs[0]['header']['stamp'] == {'sec': 0, 'nanosec': 0}
+    assert len(docs[0]['data']) == 1 and docs[1]['data'][-1] == '...' and len(docs[1]['data']) == 6
+    first, second = [d for d in yaml.safe_load_all(outputs[1][0]) if d]
+    assert len(first['data']) == 1 and len(second['data']) == 100   # the state at t = 0, then a full frame
+
+
+def test_echo_without_a_publisher_is_one_clear_line():
+    with processes() as start:
+        echo = start([EMLA, 'echo', '/emla/nothing', '--timeout', '1'])
+        out, err = echo.communicate(timeout=60)
+    assert echo.returncode == 1 and out == ''
+    assert err.strip().count('\n') == 0 and 'no publisher of /emla/nothing within 1 s' in err
+
+
+def test_play_of_an_unreadable_bag_is_one_clear_line(tmp_path):
+    (tmp_path / 'metadata.yaml').write_text('{not yaml')
+    out = subprocess.run([EMLA, 'play', str(tmp_path)], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 2 and 'Traceback' not in out.stderr and str(tmp_path) in out.stderr
