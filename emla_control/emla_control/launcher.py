@@ -19,6 +19,8 @@ import threading
 import time
 from pathlib import Path
 
+import yaml
+
 from emla_sim.bag import read_bag, stamp_to_ns
 from emla_sim.errors import InputError
 
@@ -231,13 +233,12 @@ class Monitor:
 
 def write_params(directory, node, parameters):
     """A ROS 2 params file for /emla/<node>; its path."""
-    import yaml
     path = Path(directory) / f'{node}.yaml'
     path.write_text(yaml.safe_dump({f'/emla/{node}': {'ros__parameters': parameters}}, sort_keys=False))
     return path
 
 
-def launch(scenario, duration, bag, node_parameters, *, progress=True):
+def launch(scenario, duration, bag, node_parameters):
     """Run the graph: NODES as processes with `node_parameters` {node: {name: value}} (the plant's duration
     and start barrier are set here), and the recorder writing `bag`. Returns the contract's summary dict;
     raises LaunchError when a node dies or the run stalls. Every process is stopped on return."""
@@ -249,8 +250,8 @@ def launch(scenario, duration, bag, node_parameters, *, progress=True):
                   'recorder': {'bag': str(bag), 'scenario': scenario, 'hold_start': True}}
     with reserved_domain() as domain, tempfile.TemporaryDirectory(prefix='emla-launch-') as tmp, \
             Graph(domain_env(domain)) as graph, ros_node('emla_launch', domain) as (node, executor), \
-            tqdm(total=round(duration, 6), unit='s', desc=f'{scenario} (domain {domain})', file=sys.stderr,
-                 disable=not progress, bar_format='{desc}: {n:.3f}/{total} s simulated [{elapsed}]') as bar:
+            tqdm(total=round(duration, 6), desc=f'{scenario} (domain {domain})', file=sys.stderr,
+                 bar_format='{desc}: {n:.3f}/{total} s simulated [{elapsed}]') as bar:
         monitor = Monitor(node)
         for name in ('recorder', *NODES):
             graph.start(name, [str(BIN / 'emla'), 'run', name, '--params-file',

@@ -7,15 +7,15 @@ over the reduced coefficients with that tie, for h from the electrical estimate,
 settles. Stream and batch therefore give the same parameters from the same samples.
 
 Uncertainties are one-sigma. The residuals are far from white (differencing the quantised position colours
-them), so they come from a noise model instead of sigma2 P: white noise on each measured signal, carried
-through the rows, with variances fitted to the residual autocovariances (_noise_variances); the lagged
-moments this needs are kept alongside the least-squares state (LagMoments). The coefficients' covariance
-reaches the physical parameters by the delta method, the regressions taken as independent. On the test
-data the reported values match the scatter over noise realisations to within some 30 %.
+them), so sigma2 P would misstate them badly; they come from a noise model instead: white noise on each
+measured signal, carried through the rows, with variances fitted to the residual autocovariances
+(_noise_variances), and the sandwich covariance that noise gives the weighted estimate
+(_coefficient_covariances), from lagged moments kept alongside the least-squares state (LagMoments). The
+delta method carries it to the physical parameters, the regressions taken as independent. On the test data
+the reported values match the scatter over noise realisations to within some 50 %.
 """
 import functools
 import itertools
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -39,11 +39,14 @@ _MAX_CONDITION = 1e12   # normalised information matrix above this: a parameter 
 
 
 class LagMoments:
-    """sum_k lambda^(N-k) z_k z_(k-d)' for d = 1 .. HISTORY over a stream of rows z = [phi, y], in any frames."""
+    """The squared-weight moments the noise model needs, over a stream of rows z = [phi, y] in any frames:
+    moments[d] = sum_k w_k^2 z_k z_(k-d)' for d = 0 .. HISTORY and weight = sum_k w_k^2, with the least-squares
+    weights w_k = lambda^(N-k) (a weighted estimate's error sum_k w_k phi_k e_k has w^2 in its covariance)."""
 
     def __init__(self, width, forgetting=1.0):
         self.forgetting = forgetting
-        self.moments = np.zeros((HISTORY, width, width))
+        self.moments = np.zeros((HISTORY + 1, width, width))
+        self.weight = 0.0
         self._tail = np.zeros((HISTORY, width))  # zero rows before the first contribute nothing
 
     def update(self, z):
@@ -52,24 +55,29 @@ class LagMoments:
             return
         width = z.shape[1]
         rows_ = np.concatenate((self._tail, z))
-        lagged = np.hstack([rows_[HISTORY - d:HISTORY - d + m] for d in range(1, HISTORY + 1)])
-        if self.forgetting != 1.0:
-            z = z * (self.forgetting ** np.arange(m - 1, -1, -1.0))[:, None]
-            self.moments *= self.forgetting ** m
-        self.moments += (z.T @ lagged).reshape(width, HISTORY, width).transpose(1, 0, 2)
+        lagged = np.hstack([rows_[HISTORY - d:HISTORY - d + m] for d in range(HISTORY + 1)])
+        if self.forgetting == 1.0:
+            self.weight += m
+        else:
+            squared = self.forgetting ** 2
+            weights = squared ** np.arange(m - 1, -1, -1.0)
+            z = z * weights[:, None]
+            self.moments *= squared ** m
+            self.weight = squared ** m * self.weight + weights.sum()
+        self.moments += (z.T @ lagged).reshape(width, HISTORY + 1, width).transpose(1, 0, 2)
         self._tail = rows_[-HISTORY:]
 
 
 @dataclass(frozen=True)
 class Statistics:
-    """State of one regression: theta, P (unscaled), sigma2, effective samples (as rls.py and offline.py keep
-    them) and the lagged moments of its rows (LagMoments.moments) for the noise model."""
+    """State of one regression: theta and P (unscaled) as rls.py and offline.py keep them, and the LagMoments
+    (moments, weight) of its rows for the noise model."""
 
     theta: np.ndarray
     covariance: np.ndarray
-    residual_variance: float
-    effective_samples: float
     lags: np.ndarray
+    weight: float
+    forgetting: float
 
     @functools.cached_property
     def information(self):
@@ -80,18 +88,16 @@ class Statistics:
         return np.linalg.solve(T @ self.information @ T.T, T @ self.information @ self.theta)
 
     def residual_products(self, T, theta):
-        """Weighted sums of r_k r_(k-d), d = 0 .. HISTORY, of the residuals with coefficients T' theta."""
-        offset = self.theta - T.T @ theta
-        rss = self.residual_variance * (self.effective_samples - len(self.theta)) + offset @ self.information @ offset
+        """sum_k w_k^2 r_k r_(k-d), d = 0 .. HISTORY, of the residuals with coefficients T' theta."""
         a = np.append(-(T.T @ theta), 1.0)
-        return np.concatenate(([rss], self.lags @ a @ a))
+        return self.lags @ a @ a
 
     @functools.cached_property
     def regressor_lags(self):
-        """sum phi_k phi_(k-d)' + its transpose for d = 1 .. HISTORY."""
+        """[S_0, S_1, ..]: S_0 = sum w^2 phi_k phi_k', S_d = sum w^2 phi_k phi_(k-d)' + its transpose."""
         n = len(self.theta)
         ahead = self.lags[:, :n, :n]
-        return ahead + np.swapaxes(ahead, 1, 2)
+        return np.concatenate((ahead[:1], ahead[1:] + np.swapaxes(ahead[1:], 1, 2)))
 
 
 def _log_decay(alpha):
@@ -189,7 +195,7 @@ def _noise_variances(statistics, restricted, sample_period):
         filters = _noise_filters(kind, T, theta, sample_period)
         products = stats.residual_products(T, theta)
         scale = 1.0 / products[0] if products[0] > 0 else 0.0  # each regression's equations in its own units
-        equations.append(scale * stats.effective_samples * np.column_stack(
+        equations.append(scale * stats.weight * np.column_stack(
             [_autocorrelation(filters[name]) if name in filters else np.zeros(HISTORY + 1) for name in sources]))
         targets.append(scale * products)
     return dict(zip(sources, _nonnegative_least_squares(np.concatenate(equations), np.concatenate(targets))))
@@ -200,16 +206,17 @@ def _coefficient_covariances(statistics, restricted, variances, sample_period):
 
     The residuals are coloured (the second difference of the quantised position dominates the mechanical
     one; sigma2 P would overstate B's uncertainty some 60 times), so the covariance is the sandwich
-    P_r (sum_s sigma_s^2 sum_k psi_k psi_k') P_r, psi_k = sum_j c_j phi_r,(k-j) for the noise filter c of
-    signal s: in lagged moments L_d = sum_k phi_k phi_(k-d)', sum_k psi_k psi_k' = sum_d g_d L_d with g the
-    autocorrelation of c (L_0 = P^-1, L_-d = L_d').
+    P_r (sum_s sigma_s^2 sum_i psi_i psi_i') P_r: the error sum_k w_k phi_r,k e_k gets the noise of sample i
+    through psi_i = sum_j c_j w_k phi_r,k (k = i + 2 - j, c the signal's noise filter). Expanded, that is
+    sum_d lambda^d g_d S_d over the LagMoments, g the autocorrelation of c; it cancels to what is left at
+    low frequency exactly, so it stays positive semi-definite.
     """
     covariances = {}
     for kind, (T, theta) in restricted.items():
         stats = statistics[kind]
-        middle = sum(variances[name] * (g[0] * stats.information + np.einsum('d,dij->ij', g[1:], stats.regressor_lags))
-                     for name, c in _noise_filters(kind, T, theta, sample_period).items()
-                     for g in [_autocorrelation(c)])
+        decay = stats.forgetting ** np.arange(HISTORY + 1)
+        middle = sum(variances[name] * np.einsum('d,dij->ij', decay * _autocorrelation(c), stats.regressor_lags)
+                     for name, c in _noise_filters(kind, T, theta, sample_period).items())
         inverse = np.linalg.inv(T @ stats.information @ T.T)
         covariances[kind] = inverse @ T @ middle @ T.T @ inverse
     return covariances
@@ -276,11 +283,9 @@ def identify(recording, model=None, forgetting=1.0, *, initial_covariance=1e6, p
         lags[kind] = _lag_trajectory(np.column_stack((phi, y)), tracks[kind].samples, lam)
         report((j + 1) / (len(kinds) + 1))
     ends = next(iter(tracks.values())).samples
-    effective = ends if lam == 1.0 else -np.expm1(ends * math.log(lam)) / (1.0 - lam)
     values, stds = [], []
     for j in range(len(ends)):
-        stats = {kind: Statistics(t.theta[j], t.covariance[j], t.residual_variance[j], effective[j], lags[kind][j])
-                 for kind, t in tracks.items()}
+        stats = {kind: Statistics(t.theta[j], t.covariance[j], *lags[kind][j], lam) for kind, t in tracks.items()}
         names, value, covariance = physical(model, stats, ts)
         values.append(value)
         stds.append(np.sqrt(np.diag(covariance)))
@@ -296,12 +301,12 @@ def identify(recording, model=None, forgetting=1.0, *, initial_covariance=1e6, p
 
 
 def _lag_trajectory(z, ends, forgetting):
-    """LagMoments.moments after rows [0, end) for each end."""
+    """(LagMoments.moments, weight) after rows [0, end) for each end."""
     moments = LagMoments(z.shape[1], forgetting)
     states, start = [], 0
     for end in ends:
         moments.update(z[start:end])
-        states.append(moments.moments.copy())
+        states.append((moments.moments.copy(), moments.weight))
         start = end
     return states
 

@@ -95,6 +95,6 @@ class OnlineIdentifier:
         return names, covariance
 
     def _physical(self):
-        statistics = {kind: Statistics(rls.theta, rls.covariance, rls.residual_variance, rls.effective_samples,
-                                       self._lags[kind].moments) for kind, rls in self._rls.items()}
+        statistics = {kind: Statistics(rls.theta, rls.covariance, self._lags[kind].moments, self._lags[kind].weight,
+                                       rls.forgetting) for kind, rls in self._rls.items()}
         return physical(self.model, statistics, self.sample_period)

@@ -23,16 +23,17 @@ output; regressing u_k on a central-difference dI/dt instead gives R some 37 % l
 Mechanical. The second difference of position is the exact triangle-weighted mean acceleration over
 [t_k-1, t_k+1], so no derivative of a noisy signal enters a regressor:
 
-    (x_k+1 - 2 x_k + x_k-1) / Ts^2 = (Km/m) F_tri - (B/m) v_tri - Fl/m.
+    (x_k+1 - 2 x_k + x_k-1) / Ts^2 = F_tri / m - (B/m) v_tri - Fl/m,
 
-v_tri is the same triangle-weighted mean of velocity: (mean of x over [t_k, t_k+1] - mean over
-[t_k-1, t_k]) / Ts, i.e. the central difference with a third-difference correction. F_tri weights the force
-by the triangle. A measured force is taken as linear between samples: F_tri = (F_k-1 + 4 F_k + F_k+1) / 6.
+F_tri and v_tri being the same triangle-weighted means of the force (Km I_tri for the coil) and of the
+velocity. v_tri = (mean of x over [t_k, t_k+1] - mean over [t_k-1, t_k]) / Ts is the central difference
+with a third-difference correction. A measured force is taken as linear between samples:
+F_tri = (F_k-1 + 4 F_k + F_k+1) / 6.
 The coil current is not linear within an interval but exponential with rate R/L; pinned to the sampled
 values that shape adds eta(h) (I_k+1 - I_k-1) / 2 (its symmetric part, h^2/720 of the second difference,
 is below 0.01 % and left out). The regression is on [Km/m, eta Km/m, B/m, Fl/m], the second tied to the
 first by h from the electrical equation. The back-EMF's rise within an interval bends the current by an
-amount proportional to the acceleration, which acts exactly like an extra mass Km^2 eta Ts / R; it is added
+amount proportional to the acceleration, which acts like an extra mass Km^2 eta Ts / R (to first order); added
 when m is formed. The noise of the second difference (symmetric in time) is uncorrelated with that of
 v_tri (antisymmetric), so quantisation does not bias B.
 """

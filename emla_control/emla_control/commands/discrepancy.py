@@ -41,23 +41,30 @@ def run(args):
         names = [n.strip() for n in args.candidates.split(',') if n.strip()]
         unknown = [n for n in names if n not in CANDIDATES]
         if unknown or not names:
-            raise InputError(f'--candidates {args.candidates!r}: unknown effect(s) {", ".join(unknown) or "(none given)"}; '
-                             f'known: {", ".join(CANDIDATES)}')
+            raise InputError(f'--candidates {args.candidates!r}: unknown effect(s) '
+                             f'{", ".join(unknown) or "(none given)"}; known: {", ".join(CANDIDATES)}')
     diagnosis = diagnose(load(args.data), names)
     text = json.dumps(_finite(diagnosis.to_dict()), indent=2) + '\n'
-    if args.report:
-        _write_report(diagnosis, Path(args.report), text)
-    if args.json:
-        temporary = f'{args.json}.partial'
-        try:
-            Path(temporary).write_text(text)
-            os.replace(temporary, args.json)
-        finally:
-            if os.path.exists(temporary):
-                os.remove(temporary)
-    else:
+    try:
+        if args.report:
+            _write_report(diagnosis, Path(args.report), text)
+        if args.json:
+            _write_json(Path(args.json), text)
+    except OSError as exc:
+        raise InputError(f'{exc.filename or "output"}: cannot write: {exc.strerror or exc}') from None
+    if not args.json:
         sys.stdout.write(text)
     return 0
+
+
+def _write_json(path, text):
+    temporary = path.with_name(path.name + '.partial')
+    try:
+        temporary.write_text(text)
+        os.replace(temporary, path)
+    finally:
+        if temporary.exists():
+            temporary.unlink()
 
 
 def _write_report(diagnosis, directory, text):

@@ -61,7 +61,7 @@ def run(args):
     from emla_control.launcher import ros_node
 
     limit = None if args.full_length else args.truncate_length
-    received = []
+    received = 0
     with ros_node('emla_echo') as (node, executor):
         deadline = time.monotonic() + args.timeout
         while not (publishers := node.get_publishers_info_by_topic(args.topic)):
@@ -72,7 +72,8 @@ def run(args):
             time.sleep(0.05)
 
         def show(msg):
-            received.append(msg)
+            nonlocal received
+            received += 1
             sys.stdout.write(yaml.safe_dump(to_plain(msg, limit), default_flow_style=False, sort_keys=False))
             sys.stdout.write('---\n')
             sys.stdout.flush()
@@ -80,13 +81,13 @@ def run(args):
         node.create_subscription(message_class(publishers[0].topic_type), args.topic, show,
                                  subscriber_qos(publishers))
         deadline = time.monotonic() + args.timeout
-        while not args.count or len(received) < args.count:
-            seen = len(received)
+        while not args.count or received < args.count:
+            seen = received
             executor.spin_once(timeout_sec=0.1)
-            if len(received) != seen:
+            if received != seen:
                 deadline = time.monotonic() + args.timeout
             elif time.monotonic() > deadline:
                 print(f'emla echo: no message on {args.topic} for {args.timeout:g} s '
-                      f'({len(received)} received)', file=sys.stderr)
+                      f'({received} received)', file=sys.stderr)
                 return 1
     return 0

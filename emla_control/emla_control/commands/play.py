@@ -1,7 +1,7 @@
 """Republish a bag's SampleFrame and ParameterEstimate topics with their recorded timing, and /clock.
 
 Messages go out in stamp order (simulated time), paced by their stamps scaled by --rate. --rate 0: as fast
-as a live identifier takes them: at most LEAD of bag time ahead of its latest /emla/parameters estimate
+as a live identifier takes them: at most 50 ms of bag time ahead of its latest /emla/parameters estimate
 (stamped with the end of the data it has used), so its frame queues never overflow; the bag's own
 /emla/parameters is then not played. Without an identifier, --rate 0 sends everything at once.
 /clock follows the stamps, so nodes with use_sim_time run on the bag's time. At the end /emla/plant/done
@@ -25,7 +25,8 @@ ACK_TIMEOUT = 10.0       # s for the subscribers to acknowledge the last message
 def add_arguments(parser):
     parser.add_argument('bag', help='rosbag2 directory or .mcap file')
     parser.add_argument('--rate', type=float, default=1.0, metavar='R',
-                        help='speed factor of the recorded timing; 0 = as fast as subscribers take it (default 1)')
+                        help='speed factor of the recorded timing; 0 = as fast as a live identifier takes '
+                             'it (default 1)')
     parser.add_argument('--topics', nargs='+', metavar='TOPIC',
                         help='play only these topics (default: every SampleFrame and ParameterEstimate topic)')
     parser.add_argument('--wait', type=float, default=1.0, metavar='S',

@@ -7,7 +7,8 @@
 
 Modules: data (signals analysed), candidates (the effect library and its registry), fit (augmented
 regressions, held-out blocks), simulate (k-step-ahead prediction of each subsystem), residuals (whiteness,
-cross-correlation, binning), workflow (rank, add, re-identify, gap), report, example (the bundled bag).
+cross-correlation, binning), workflow (rank, add, re-identify, gap), report (Markdown + PNG).
+The bundled example bag bags/example_discrepancy is written by tests/test_discrepancy_cli.py.
 """
 from .candidates import CANDIDATES, Candidate, register_candidate
 from .report import write_report

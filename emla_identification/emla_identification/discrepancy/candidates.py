@@ -5,15 +5,17 @@ A candidate adds terms that are linear in its parameters p (a vector of q values
     u = R I + (L + p . inductance(s)) dI/dt + Km v + p . voltage(s)      (electrical equation)
     m dv/dt = F - B v - Fl - p . force(s)                                (mechanical; force opposes +x)
 
-Each term method gets a `State` s (data.py: current, position, velocity, voltage, force, time at some
-samples; measured when regressing, predicted when simulating) and returns a (q, n) array, or None when the
-candidate has no term of that kind. A candidate may instead (or as well) re-align the data
-(`realigned`), as a sensor delay does. `variants(data)` lists the configurations to search (e.g. thermal
-time constants, delays); the best one represents the candidate.
+Each term method gets a `State` s (data.py: current, position, velocity, voltage, force, time at the
+samples s.index; measured when regressing, predicted when simulating) and returns a (q, n) array, or None
+when the candidate has no term of that kind. Terms that need a signal's history (a thermal state, a
+friction direction) compute it from the measured data once per variant and read it at s.index.
+A candidate may instead (or as well) re-align the data (`realigned`), as a sensor delay does.
+`variants(data)` lists the configurations to search (e.g. thermal time constants, delays); the best one
+represents the candidate.
 
-Your own effect: subclass Candidate, set `name`, `parameters`, `units` and `acts_on`, write the term
-methods, and decorate the class with `@register_candidate`. `emla discrepancy` then ranks it with the
-built-in ones. Example: a viscous-friction squared term `c v |v|`:
+Your own effect: subclass Candidate, set `name`, `parameters`, `units`, `acts_on` (and `signs` if physics
+fixes them), write the term methods, and decorate the class with `@register_candidate`; `diagnose` and
+`emla discrepancy` then rank it with the built-in ones. Example, a quadratic drag c v |v|:
 
     @register_candidate
     class QuadraticDrag(Candidate):
@@ -26,7 +28,6 @@ built-in ones. Example: a viscous-friction squared term `c v |v|`:
             return (s.velocity * np.abs(s.velocity))[None]
 """
 import dataclasses
-import itertools
 from typing import ClassVar
 
 import numpy as np
@@ -157,8 +158,8 @@ class ReturnSpring(Candidate):
 @dataclasses.dataclass(frozen=True)
 class ResistanceDrift(Candidate):
     """R(t) = R0 + dR q(t), q the coil's heating: I^2 low-passed with the thermal time constant, scaled
-    to end at 1 (a first-order coil: temperature rise = R_th * low-passed Joule power). dR is the rise
-    over the record; the time constant is searched on a grid (a long one gives a ramp in time)."""
+    to peak at 1 (a first-order coil: temperature rise = R_th * low-passed Joule power). dR is the rise at
+    the hottest point of the record; the time constant is searched on a grid (a long one gives a ramp)."""
 
     name: ClassVar[str] = 'resistance_drift'
     parameters: ClassVar[tuple] = ('resistance_rise',)
@@ -176,7 +177,7 @@ class ResistanceDrift(Candidate):
             a = np.exp(-data.sample_period / tau)
             heating = lfilter([1.0 - a], [1.0, -a], power)
             variants.append(dataclasses.replace(self, thermal_time_constant=float(tau),
-                                                heating=heating / heating[-1]))
+                                                heating=heating / max(heating.max(), np.finfo(float).tiny)))
         return variants
 
     def voltage(self, s):
@@ -238,7 +239,9 @@ class ForceConstantVariation(Candidate):
 @register_candidate
 @dataclasses.dataclass(frozen=True)
 class SensorDelay(Candidate):
-    """Sensed signals delivered late by whole samples; searched per signal up to data.MAX_DELAY."""
+    """Sensed signals delivered d samples late (1 <= d <= data.MAX_DELAY): one of them, or all by the same d.
+
+    With a measured force nothing is applied, so only a delay between the two sensors can show."""
 
     name: ClassVar[str] = 'sensor_delay'
     acts_on: ClassVar[tuple] = ('electrical', 'mechanical', 'force')
@@ -246,12 +249,11 @@ class SensorDelay(Candidate):
 
     def variants(self, data):
         sensed = data.sensed
-        out = []
-        for combo in itertools.product(range(MAX_DELAY + 1), repeat=len(sensed)):
-            # with a measured force nothing is applied, so only the delay between the sensors shows
-            if any(combo) and (data.electrical or min(combo) == 0):
-                out.append(dataclasses.replace(self, delays=tuple(zip(sensed, combo))))
-        return out
+        patterns = [tuple(int(s == late) for s in sensed) for late in sensed]
+        if data.electrical:
+            patterns.append((1,) * len(sensed))
+        return [dataclasses.replace(self, delays=tuple(zip(sensed, (d * p for p in pattern))))
+                for pattern in patterns for d in range(1, MAX_DELAY + 1)]
 
     def realigned(self, data):
         return data.realigned(dict(self.delays))

@@ -5,7 +5,7 @@ position), with a point velocity estimate and room at the end for re-aligning de
 `State` is the set of signals at some samples: the measured ones when regressing, the predicted ones
 (current, position, velocity) when simulating; candidate effects are written against it.
 """
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -26,7 +26,6 @@ class Data:
     spare: dict            # name -> the MAX_DELAY samples that follow the window
     kinds: tuple           # regressions of regressors.py: ('electrical', 'mechanical') or ('force',)
     source: str = ''
-    delays: dict = field(default_factory=dict)   # sensed signal -> samples it was re-aligned by
 
     @classmethod
     def from_recording(cls, recording):
@@ -61,6 +60,11 @@ class Data:
         return 'electrical' in self.kinds
 
     @property
+    def mechanical(self):
+        """The mechanical regression's kind: 'mechanical' (coil current) or 'force' (measured force)."""
+        return self.kinds[-1]
+
+    @property
     def drive(self):
         """The mechanical input: 'current' (force Km I) or 'force' (measured)."""
         return 'force' if 'force' in self.signals else 'current'
@@ -80,7 +84,7 @@ class Data:
         for name, d in delays.items():
             full = np.concatenate((self.signals[name], self.spare[name]))
             signals[name] = full[d:d + len(self)]
-        return replace(self, signals=signals, delays=dict(delays))
+        return replace(self, signals=signals)
 
     def velocity(self):
         """Point velocity at every sample: five-point central difference (exact for cubic motion).
@@ -91,12 +95,9 @@ class Data:
         v[2:-2] = (x[:-4] - 8.0 * x[1:-3] + 8.0 * x[3:-1] - x[4:]) / (12.0 * self.sample_period)
         return v
 
-    def state(self, index=None):
-        """The measured State at samples `index` (default: all)."""
-        index = np.arange(len(self)) if index is None else index
-        velocity = self.velocity()
-        return State(self, index, **{n: self.signals[n][index] for n in self.signals},
-                     velocity=velocity[index])
+    def state(self):
+        """The measured State at every sample."""
+        return State(self, np.arange(len(self)), velocity=self.velocity(), **self.signals)
 
 
 @dataclass

@@ -17,6 +17,13 @@ parameters:
 The electrical terms see the interval: its mean current (from the model's step, free of the output's
 noise), mid position and back-EMF velocity; the mechanical ones see each sample.
 
+The mechanical rows (output, regressors and candidate columns alike, which keeps the estimates unbiased,
+physics.md) are prefiltered by (1 - rho) / (1 - rho q^-1)^2, rho = PREFILTER. The second difference of
+position multiplies the white position noise by (1 - q^-1)^2, putting nearly all of it at high frequency
+where no effect of interest lives; the prefilter undoes most of that (a partial whitening, as in
+generalised least squares), so held-out errors measure the effects rather than the quantisation.
+rho -> 1 would whiten fully but lets the lowest frequencies dominate a misspecified nominal fit.
+
 The record is cut into FOLDS contiguous blocks and every block's sums of squares are kept, so each
 leave-one-block-out fit and its error on the block it left out cost one small solve. The blocks give the
 held-out (cross-validated) residuals and delete-one-block jackknife uncertainties, which stay honest when
@@ -33,6 +40,7 @@ from emla_identification.regressors import emf_lag, rows, tie
 from .data import State, regression_rows
 
 FOLDS = 10
+PREFILTER = 0.9
 NOMINAL = {'electrical': ('resistance', 'inductance', 'emf_constant'),
            'mechanical': ('mass', 'damping', 'load_force'), 'force': ('mass', 'damping', 'load_force')}
 
@@ -79,12 +87,9 @@ class ElectricalRows:
         return np.hstack(blocks)
 
 
-PREFILTER = 0.9
-
-
 def mechanical_rows(data, model, candidates, prefilter=True):
     """(Phi tied, Y, candidate force columns) of the mechanical (or force) regression about `model`."""
-    kind = data.kinds[-1]
+    kind = data.mechanical
     phi, y = rows(kind, data.signals, data.sample_period)
     phi = phi @ tie(kind, _decay(model, data.sample_period)).T
     state = data.state()
@@ -96,10 +101,10 @@ def mechanical_rows(data, model, candidates, prefilter=True):
         else:
             blocks.append(-(f[:, 1:-3] + 4.0 * f[:, 2:-2] + f[:, 3:-1]).T / (6.0 * model['mass']))
     extra = np.hstack(blocks)
-    if prefilter and PREFILTER:
+    if prefilter:
         rho = PREFILTER
-        a = [1.0, -2.0 * rho, rho * rho]
-        phi, y, extra = (lfilter([1.0 - rho], a, v, axis=0) for v in (phi, y, extra))
+        filtered = lfilter([1.0 - rho], [1.0, -2.0 * rho, rho * rho], np.column_stack((phi, y, extra)), axis=0)
+        phi, y, extra = filtered[:, :phi.shape[1]], filtered[:, phi.shape[1]], filtered[:, phi.shape[1] + 1:]
     return phi, y, extra
 
 
@@ -109,7 +114,7 @@ def design(data, model, candidates, prefilter=True):
     if data.electrical:
         electrical = ElectricalRows(data, model)
         out['electrical'] = (electrical.phi, electrical.y, electrical.columns(candidates))
-    out[data.kinds[-1]] = mechanical_rows(data, model, candidates, prefilter)
+    out[data.mechanical] = mechanical_rows(data, model, candidates, prefilter)
     return out
 
 
@@ -186,24 +191,22 @@ def _solve(data, candidates, model, sigma):
     widths = [blocks[k][0].shape[1] for k in kinds]
     q = next(iter(blocks.values()))[2].shape[1]
     n = sum(widths) + q
-    folds = regression_rows(data) * FOLDS // len(data)
+    index = regression_rows(data)
+    bounds = np.searchsorted(index * FOLDS // len(data), np.arange(FOLDS + 1))   # contiguous blocks
     sums = np.zeros((FOLDS, len(kinds), n + 1, n + 1))   # per block and regression: Z'Z, Z = [Phi | Y] / sigma
     for j, kind in enumerate(kinds):
         phi, y, extra = blocks[kind]
-        z = np.zeros((len(y), n + 1))
-        start = sum(widths[:j])
-        z[:, start:start + widths[j]] = phi
-        z[:, sum(widths):n] = extra
-        z[:, n] = y
-        z /= sigma[kind]
+        z = np.column_stack((phi, extra, y))
+        # this regression's columns within the stacked [nominal of each kind | candidates | Y]
+        at = np.r_[sum(widths[:j]):sum(widths[:j + 1]), sum(widths):n + 1]
         for f in range(FOLDS):
-            zf = z[folds == f]
-            sums[f, j] = zf.T @ zf
+            zf = z[bounds[f]:bounds[f + 1]]
+            sums[f, j][np.ix_(at, at)] = zf.T @ zf / sigma[kind] ** 2
     total = sums.sum(axis=(0, 1))
     theta = _least_squares(total, n)
     left_out = np.array([_least_squares(total - sums[f].sum(axis=0), n) for f in range(FOLDS)])
     heldout = np.array([[_rss(sums[f, j], t, n) for j in range(len(kinds))] for f, t in enumerate(left_out)])
-    rows_per_kind = len(folds)
+    rows_per_kind = len(index)
     # residual std of each equation, floored for noise-free data (it becomes a row weight)
     rms = {kind: sigma[kind] * max(np.sqrt(_rss(sums[:, j].sum(axis=0), theta, n) / (rows_per_kind - n)),
                                    1e-9 * np.sqrt(sums[:, j, n, n].sum() / rows_per_kind))

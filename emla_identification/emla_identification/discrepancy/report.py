@@ -112,17 +112,14 @@ def _markdown(diagnosis, before):
              f'({"voltage, current, position" if data.electrical else "force, position"}).', '']
     if main:
         lines += [f'**Missing effect: `{main.name}`** ({100 * main.score:.1f} % of the held-out one-step error '
-                  'of the nominal model explained). Added parameters:', '',
-                  '| parameter | value | one sigma |', '|---|---|---|']
-        lines += [f'| {k} | {v:.6g} | {s:.2g} |' for k, (v, s) in main.parameters.items()]
-        lines += [''] + [f'Settings found by search: ' + ', '.join(f'{k} = {v:.4g}' for k, v in main.settings.items())
-                         if main.settings else '', '']
+                  'of the nominal model explained). Added parameters:', ''] + _parameter_table(main)
     else:
         lines += ['**No missing effect**: no candidate explains a significant part of what the nominal model '
                   'leaves unexplained.', '']
     if second:
-        lines += [f'A second effect is significant after the first is added: `{second.name}` '
-                  f'({second.evidence}).', '']
+        gaps = ', '.join(f'{s} {v:.4g}' for s, v in d['second_effect']['gap_after'].items())
+        lines += [f'**A second effect is significant once the first is in the model: `{second.name}`** '
+                  f'(NRMSE with both: {gaps}).', ''] + _parameter_table(second)
     lines += ['## Gap between model and measurement', '', d['method'] + '.', '',
               '| signal | NRMSE nominal | NRMSE with the effect |', '|---|---|---|']
     lines += [f'| {s} | {d["gap_before"][s]:.4g} | {d["gap_after"][s]:.4g} |' for s in d['gap_before']]
@@ -130,7 +127,8 @@ def _markdown(diagnosis, before):
               '## Candidate effects', '',
               f'Significant = better on at least {MIN_BLOCKS} of {FOLDS} held-out blocks (sign test), score '
               f'at least {MIN_SCORE:g} (fraction of the held-out one-step error removed, summed over the '
-              f'equations) and a parameter at least {MIN_T:g} jackknife sigmas from zero.', '',
+              f'equations), a parameter at least {MIN_T:g} jackknife sigmas from zero, and parameters of the '
+              'sign physics gives them.', '',
               '| effect | score | significant | evidence |', '|---|---|---|---|']
     lines += [f'| {c["effect"]} | {c["score"]:.4f} | {"yes" if c["significant"] else "no"} | {c["evidence"]} |'
               for c in d['candidates']]
@@ -149,6 +147,7 @@ def _markdown(diagnosis, before):
               'both sides of the electrical equation, the second difference of position noise the mechanical '
               'one); what matters is the correlation beyond that and with the input.', '',
               '![correlation](correlation.png)', '', '## Parameters', '',
+              'One sigma from the delete-one-block jackknife.', '',
               '| parameter | nominal | re-identified with the effect |', '|---|---|---|']
     for name, value in diagnosis.nominal.parameters.items():
         if name != 'sample_period':
@@ -156,6 +155,13 @@ def _markdown(diagnosis, before):
             lines.append(f'| {name} | {_pm(value, diagnosis.nominal.std.get(name))} | '
                          f'{_pm(new, diagnosis.final.std.get(name))} |')
     return '\n'.join(lines) + '\n'
+
+
+def _parameter_table(assessment):
+    lines = ['| parameter | value | one sigma (block jackknife) |', '|---|---|---|']
+    lines += [f'| {k} | {v:.6g} | {s:.2g} |' for k, (v, s) in assessment.parameters.items()]
+    settings = ', '.join(f'{k} = {v:.4g}' for k, v in assessment.settings.items())
+    return lines + ([''] + [f'Found by search: {settings}.'] if settings else []) + ['']
 
 
 def _pm(value, sigma):

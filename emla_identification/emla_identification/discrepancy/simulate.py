@@ -10,7 +10,8 @@ measured inputs, and every sample is predicted from the measured state `horizon`
                 horizon 5 L/R, by which the initial current is forgotten (a free run in effect).
     mechanical: position from the measured current (force Km I) or force, integrating m dv/dt =
                 F - B v - Fl - candidate forces exactly over each interval (force held at its interval
-                mean); starts from the measured position and its local-fit velocity; horizon MECHANICAL_TIME.
+                mean); starts from the measured position and a model-based local velocity estimate;
+                horizon MECHANICAL_TIME.
 """
 from dataclasses import dataclass
 

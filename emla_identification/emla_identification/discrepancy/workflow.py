@@ -13,10 +13,13 @@ significant when
   1. it improves the held-out error in at least MIN_BLOCKS of the FOLDS blocks: a sign test on whole
      blocks, valid however coloured the residuals are inside a block (9 of 10 by chance: p = 0.011),
   2. its score is at least MIN_SCORE: with N ~ 1e4..1e5 samples any term correlated with a tiny structural
-     misfit would pass a test of "different from zero"; an effect has to matter (noise-only data give
-     scores below 0.1 %, the effects of physics.md at realistic strengths 5 % and more), and
+     misfit would pass a test of "different from zero", so an effect has to matter (noise-only data give
+     scores below 0.2 %, the effects of physics.md at realistic strengths 39 % and more),
   3. its parameters are resolved: some parameter is at least MIN_T jackknife sigmas from zero (block
-     jackknife, again robust to coloured residuals); a delay has no continuous parameter.
+     jackknife, again robust to coloured residuals; a delay has no continuous parameter), and
+  4. they have the sign physics gives them (Candidate.signs: friction and a return spring oppose motion
+     and displacement, heating raises R, saturation lowers L): a wrong sign means the term is patching
+     some other misfit.
 Fitting noise cannot pass 1 and 2 together: a term that only fits noise predicts held-out blocks worse.
 """
 from dataclasses import dataclass, field
@@ -36,12 +39,18 @@ MIN_BLOCKS = 9
 MIN_SCORE = 0.05
 MIN_T = 3.0
 SMOOTHING = 1e-3   # s, of the residuals binned against the signals
+EQUATION = {'electrical': 'electrical', 'mechanical': 'mechanical', 'force': 'mechanical'}   # regression kinds
 
-METHOD = ('k-step-ahead prediction of each subsystem from its measured inputs: current from the measured '
-          'voltage and position-derived back-EMF velocity (horizon 5 L/R, a free run in effect), position from '
-          f'the measured current or force (horizon {MECHANICAL_TIME * 1e3:g} ms, started from the measured position '
-          'and a model-based local velocity estimate); candidates ranked by the fraction of the held-out '
-          f'one-step residual they remove ({FOLDS} contiguous blocks, leave-one-block-out)')
+
+
+def method(data):
+    """How the gap is measured and the candidates ranked, in one sentence (the JSON's `method`)."""
+    electrical = ('current from the measured voltage and the back-EMF velocity of the measured position '
+                  '(horizon 5 L/R, a free run in effect), ' if data.electrical else '')
+    return (f'k-step-ahead prediction of each subsystem from its measured inputs: {electrical}position from '
+            f'the measured {data.drive} (horizon {MECHANICAL_TIME * 1e3:g} ms, started from the measured '
+            'position and a model-based local velocity estimate); candidates ranked by the fraction of the '
+            f'held-out one-step residual they remove ({FOLDS} contiguous blocks, leave-one-block-out)')
 
 
 @dataclass
@@ -66,9 +75,10 @@ class Assessment:
     def evidence(self):
         params = '; '.join(f'{k} = {_format(v, s)}' for k, (v, s) in self.parameters.items())
         settings = ', '.join(f'{k} {v:.3g}' for k, v in self.settings.items() if isinstance(v, (int, float)))
-        equations = ', '.join(f'{k} {100 * v:.1f} %' for k, v in self.per_equation.items())
+        equations = ', '.join(f'{EQUATION[k]} {100 * v:.1f} %' for k, v in self.per_equation.items())
         return (f'{params or "no parameters"}{f" ({settings})" if settings else ""}; removes {equations} of the '
-                f'held-out one-step error; better in {self.blocks_improved}/{FOLDS} held-out blocks')
+                f'held-out one-step error; better in {self.blocks_improved}/{FOLDS} held-out blocks'
+                f'{"" if self.plausible else "; parameter of the wrong sign"}')
 
     def to_dict(self):
         return {'effect': self.name, 'score': round(self.score, 6), 'significant': bool(self.significant),
@@ -88,16 +98,15 @@ class Diagnosis:
     before: dict                     # signal -> Prediction of the nominal model
     after: dict                      # signal -> Prediction of the final model
     second: list = field(default_factory=list)   # Assessments against the final model, best first
+    second_after: dict = field(default_factory=dict)   # signal -> Prediction with both effects
 
     @property
     def main(self):
-        best = self.candidates[0] if self.candidates else None
-        return best if best is not None and best.significant else None
+        return _best(self.candidates)
 
     @property
     def second_effect(self):
-        best = self.second[0] if self.second else None
-        return best if best is not None and best.significant else None
+        return _best(self.second)
 
     def added_parameters(self):
         return self.main.parameters if self.main else {}
@@ -114,11 +123,11 @@ class Diagnosis:
             'nominal_parameters': _rounded(self.nominal.parameters),
             'reidentified_parameters': _rounded(self.final.parameters),
             'second_effect': second.to_dict() if second else None,
-            'method': METHOD,
+            'method': method(self.data),
         }
         if second:
             out['second_effect']['added_parameters'] = {k: v for k, (v, _) in second.parameters.items()}
-            out['second_effect']['gap_after'] = {s: round(p.nrmse, 6) for s, p in predict(second.fit).items()}
+            out['second_effect']['gap_after'] = {s: round(p.nrmse, 6) for s, p in self.second_after.items()}
         return out
 
 
@@ -127,18 +136,28 @@ def _rounded(parameters):
 
 
 def diagnose(recording, names=None):
-    """The Diagnosis of a Recording (t, voltage, current, position or t, force, position)."""
+    """The Diagnosis of a Recording (t, voltage, current, position or t, force, position).
+
+    names: the registered candidates to consider (default: all)."""
     data = Data.from_recording(recording)
-    nominal = fit(data)
-    if not physical(nominal.parameters):
-        raise InputError(f'{data.source}: the nominal model cannot be identified from these data (' +
-                         ', '.join(f'{k} = {v:.4g}' for k, v in nominal.parameters.items()) +
-                         '); does the recording excite the actuator?')
-    ranked = rank(nominal, library(data, names))
-    main = ranked[0] if ranked and ranked[0].significant else None
-    final = main.fit if main else nominal
-    second = rank(final, [c for c in library(data, names) if c.name != main.name]) if main else []
-    return Diagnosis(data, nominal, ranked, final, predict(nominal), predict(final), second)
+    with np.errstate(all='ignore'):   # degenerate data show up as non-finite or unphysical estimates
+        nominal = fit(data)
+        if not physical(nominal.parameters):
+            raise InputError(f'{data.source}: the nominal model cannot be identified from these data (' +
+                             ', '.join(f'{k} = {v:.4g}' for k, v in nominal.parameters.items()) +
+                             '); does the recording excite the actuator?')
+        ranked = rank(nominal, library(data, names))
+        main = _best(ranked)
+        final = main.fit if main else nominal
+        second = rank(final, [c for c in library(data, names) if c.name != main.name]) if main else []
+        before = predict(nominal)
+        return Diagnosis(data, nominal, ranked, final, before, predict(final) if main else before, second,
+                         predict(_best(second).fit) if _best(second) else {})
+
+
+def _best(assessments):
+    """The best-ranked assessment if it is significant, else None."""
+    return assessments[0] if assessments and assessments[0].significant else None
 
 
 def rank(base, candidates):
@@ -170,10 +189,8 @@ def assess(base, candidate):
 class Localisation:
     """One equation's one-step residual in physical units, and what it correlates with."""
 
-    kind: str
+    equation: str               # 'electrical' or 'mechanical'
     quantity: str               # 'voltage' (V) or 'force' (N)
-    index: np.ndarray           # samples
-    residual: np.ndarray
     whiteness: object           # residuals.Correlation
     input_name: str
     cross: object               # residuals.Correlation with the input
@@ -181,7 +198,7 @@ class Localisation:
 
 
 def localise(result):
-    """{kind: Localisation} of a Fit's residuals against time, velocity, position, current and its rate."""
+    """{equation: Localisation} of a Fit's residuals against time, velocity, position, the drive and its rate."""
     data, p = result.data, result.parameters
     ts = data.sample_period
     k = regression_rows(data)
@@ -200,7 +217,7 @@ def localise(result):
         # the sensor noise in a one-step residual is mostly high-frequency: a centred 1 ms mean leaves
         # the effects (which vary more slowly) for the binned plots
         smooth = uniform_filter1d(e, max(1, int(round(SMOOTHING / ts))), mode='nearest')
-        out[kind] = Localisation(kind, quantity, k, e, whiteness(e), input_name,
-                                 cross_correlation(e, data.signals[input_name][k]),
-                                 {name: binned(smooth, z) for name, z in against.items()})
+        out[EQUATION[kind]] = Localisation(EQUATION[kind], quantity, whiteness(e), input_name,
+                                           cross_correlation(e, data.signals[input_name][k]),
+                                           {name: binned(smooth, z) for name, z in against.items()})
     return out

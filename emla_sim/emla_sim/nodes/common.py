@@ -214,6 +214,7 @@ def frame_publishers(node, topics):
 
 
 def publish_frames(publishers, stamp, sample_period, frames):
+    """Publish frames[name] on publishers[name], all stamped `stamp` (ns)."""
     for name, publisher in publishers.items():
         publisher.publish(frame_message(stamp, sample_period, frames[name]))
 
@@ -269,13 +270,11 @@ _UNITS = {'resistance': 'ohm', 'inductance': 'H', 'emf_constant': 'V s/m (= N/A)
           'damping': 'N s/m', 'load_force': 'N (opposes +x)', 'supply_voltage': 'V'}
 _RANGES = {'resistance': (1e-3, 1e3), 'inductance': (1e-6, 10.0), 'emf_constant': (1e-3, 1e3),
            'mass': (1e-4, 1e3), 'damping': (0.0, 1e4), 'load_force': (-1e4, 1e4), 'supply_voltage': (0.1, 1e4)}
-
-
-ACTUATOR_FIELDS = tuple(_UNITS)
+ACTUATOR_FIELDS = tuple(_UNITS)  # the ActuatorParameters fields
 
 
 def actuator_specs(what):
-    """Specs of the actuator parameters (Table 1 defaults), e.g. what='true' or 'nominal (initial model)'."""
+    """Specs of the actuator parameters (Table 1 defaults); `what` starts their descriptions."""
     return [Spec(name, getattr(TABLE1, name), f'{what} {name.replace("_", " ")}, {_UNITS[name]}', *_RANGES[name])
             for name in _UNITS]
 
