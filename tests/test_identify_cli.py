@@ -123,8 +123,6 @@ def test_every_bad_input_is_one_line_and_no_output(data, tmp_path):
     assert not list(tmp_path.glob('.out*'))
 
 
-@pytest.mark.xfail(strict=True, reason='emla_sim.bag: YAML errors span lines; struct.error from a tiny .mcap '
-                                        'escapes iter_messages (needs struct.error in its except)')
 @pytest.mark.parametrize('case', ['yaml', 'tiny'])
 def test_unreadable_bag_corner_cases(tmp_path, case):
     if case == 'yaml':

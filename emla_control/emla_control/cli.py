@@ -1,10 +1,15 @@
 """The `emla` command line: one entry point, one module per subcommand in `emla_control.commands`."""
 import argparse
 import importlib
+import os
 import sys
 from importlib.metadata import PackageNotFoundError, version
 
-from emla_sim.errors import InputError
+# The suite's matrix products are tall and thin (N x 7): BLAS threads only contend with the nodes and
+# the other processes of a run for the cores. Set before numpy is first imported.
+os.environ.setdefault('OPENBLAS_NUM_THREADS', '1')
+
+from emla_sim.errors import InputError  # noqa: E402
 
 # Subcommand name -> module in emla_control.commands. Modules are imported only when their command runs,
 # so `emla --help` stays fast and a broken optional dependency cannot break the other commands.

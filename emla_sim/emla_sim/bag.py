@@ -6,6 +6,7 @@ that rosbags, mcap-ros2-support and `emla` read up to the last finished split.
 """
 import copy
 import os
+import struct
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -263,7 +264,8 @@ def _mcap_files(path):
     try:
         info = yaml.safe_load(meta_path.read_text())['rosbag2_bagfile_information']
     except (yaml.YAMLError, KeyError, TypeError) as exc:
-        raise InputError(f'{meta_path}: unreadable metadata: {exc}') from None
+        problem = ' '.join(str(exc).split())   # YAML errors span several lines
+        raise InputError(f'{meta_path}: unreadable metadata: {problem}') from None
     if info.get('storage_identifier') != 'mcap':
         raise InputError(f'{path}: storage {info.get("storage_identifier")!r} is not supported (mcap only)')
     return [path / p for p in info.get('relative_file_paths', [])], dict(info.get('custom_data') or {})
@@ -282,8 +284,8 @@ def iter_messages(path, topics=None):
                 for schema, channel, message in make_reader(f).iter_messages(topics=topics):
                     yield channel.topic, schema.name, message.log_time, store.deserialize_cdr(message.data,
                                                                                                schema.name)
-        except (McapError, OSError, ValueError, KeyError, EOFError) as exc:
-            raise InputError(f'{file}: unreadable MCAP: {exc}') from None
+        except (McapError, OSError, ValueError, KeyError, EOFError, IndexError, struct.error) as exc:
+            raise InputError(f'{file}: unreadable MCAP: {" ".join(str(exc).split()) or type(exc).__name__}') from None
 
 
 def read_bag(path):

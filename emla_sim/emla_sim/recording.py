@@ -95,7 +95,7 @@ def _uniform_period(t, path):
     dt = np.diff(t)
     if np.any(dt <= 0):
         k = int(np.argmax(dt <= 0))
-        raise InputError(f'{path}: time is not increasing at data row {k + 2} (t = {t[k + 1]!r} after {t[k]!r})')
+        raise InputError(f'{path}: time is not increasing at data row {k + 2} (t = {t[k + 1]:.9g} s after {t[k]:.9g} s)')
     period = (t[-1] - t[0]) / (len(t) - 1)
     if np.max(np.abs(dt - period)) > UNIFORM_TOLERANCE * period:
         k = int(np.argmax(np.abs(dt - period)))
