@@ -35,6 +35,7 @@ VOLTAGE_TOPICS = [common.PLANT_TOPICS['voltage'], common.MEASURED_TOPICS['voltag
 STATE_TOPICS = [common.PLANT_TOPICS[n] for n in ('current', 'position')] + \
                [common.MEASURED_TOPICS[n] for n in ('current', 'position')]
 TRUTH = {'resistance': 4.0, 'inductance': 1.6e-3}
+RCLPY_PARAMETERS = {'use_sim_time', 'start_type_description_service'}  # every rclpy node declares them
 
 
 @contextlib.contextmanager
@@ -143,21 +144,22 @@ def test_frames_of_every_topic_have_the_size_and_period_of_the_lockstep(runs):
         stamps = [stamp for stamp, _, _ in frames]
         assert {period for _, period, _ in frames} == {1e-4}, topic
         if topic in VOLTAGE_TOPICS:  # the values over [k Tc + j Ts, k Tc + (j+1) Ts)
-            assert stamps == [k * MS for k in range(PERIODS)], topic
+            controller = topic in (common.COMMAND_TOPIC, common.REFERENCE_TOPIC)  # also for the period after
+            assert stamps == [k * MS for k in range(PERIODS + controller)], topic
             assert {len(data) for _, _, data in frames} == {SAMPLES}, topic
         else:  # the state at t = 0, then the states the intervals end on
             assert stamps == [0] + [k * MS + MS // 10 for k in range(PERIODS)], topic
             assert [len(data) for _, _, data in frames] == [1] + [SAMPLES] * PERIODS, topic
     voltage = listener.signal(common.MEASURED_TOPICS['voltage'])
     np.testing.assert_array_equal(voltage, listener.signal(common.PLANT_TOPICS['voltage']))
-    np.testing.assert_array_equal(voltage, listener.signal(common.COMMAND_TOPIC))
+    np.testing.assert_array_equal(voltage, listener.signal(common.COMMAND_TOPIC)[:-SAMPLES])
     assert np.all(voltage.reshape(PERIODS, SAMPLES) == voltage[::SAMPLES, None])  # held over each period
 
 
 def test_the_loop_tracks_the_reference_and_the_identifier_sees_aligned_samples(runs):
     listener = runs[0]
     position = listener.signal(common.PLANT_TOPICS['position'])[:-1]
-    error = position - listener.signal(common.REFERENCE_TOPIC)
+    error = position - listener.signal(common.REFERENCE_TOPIC)[:-SAMPLES]
     assert position.max() > 3.5e-3 and np.sqrt(np.mean(error ** 2)) < 1e-4
     stamps = [common.stamp_ns(e.header.stamp) for e in listener.estimates]
     assert stamps == [k * 10 * MS for k in range(1, PERIODS // 10 + 1)]
@@ -191,7 +193,7 @@ def test_declared_parameters_have_descriptors_and_the_yaml_defaults(monkeypatch)
         for name, node_class in NODE_CLASSES.items():
             node = node_class()
             defaults = yaml.safe_load(CONFIG[name].read_text())[f'/emla/{name}']['ros__parameters']
-            names = [n for n in node.list_parameters([], 0).names if n != 'use_sim_time']
+            names = set(node.list_parameters([], 0).names) - RCLPY_PARAMETERS
             declared = {n: node.get_parameter_or(n, Parameter(n)) for n in names}
             assert set(declared) == set(defaults), name
             for parameter_name, parameter in declared.items():

@@ -7,6 +7,7 @@ import yaml
 
 from emla_sim.bag import read_bag
 from ros_isolation import VENV_BIN, processes
+from test_recorder import ros_env  # noqa: F401 (fixture: a locked ROS domain)
 
 pytestmark = pytest.mark.timeout(300)
 EMLA = str(VENV_BIN / 'emla')
@@ -30,16 +31,16 @@ def test_simulate_writes_the_scenario_with_estimates_and_truth(simulated):
     assert contents.truth[-1][1]['resistance'] == 4.0
 
 
-def test_a_live_identifier_fed_by_play_agrees_with_offline_identification(simulated, tmp_path):
+def test_a_live_identifier_fed_by_play_agrees_with_offline_identification(simulated, tmp_path, ros_env):
     params = tmp_path / 'identifier.yaml'
     params.write_text(yaml.safe_dump({'/emla/identifier': {'ros__parameters': {'use_sim_time': True}}}))
     with processes() as start:
-        identifier = start([EMLA, 'run', 'identifier', '--params-file', str(params)])
-        play = start([EMLA, 'play', str(simulated), '--rate', '0', '--wait', '60', '--topics', *SIGNALS])
+        identifier = start([EMLA, 'run', 'identifier', '--params-file', str(params)], env=ros_env)
+        play = start([EMLA, 'play', str(simulated), '--rate', '0', '--wait', '60', '--topics', *SIGNALS], env=ros_env)
         _, err = play.communicate(timeout=180)
         assert play.returncode == 0, err
         assert 'paced by the live identifier' in err
-        echo = start([EMLA, 'echo', '/emla/parameters', '--count', '1', '--timeout', '30'])
+        echo = start([EMLA, 'echo', '/emla/parameters', '--count', '1', '--timeout', '30'], env=ros_env)
         out, err = echo.communicate(timeout=60)
         assert echo.returncode == 0 and identifier.poll() is None, err
     online = next(yaml.safe_load_all(out))
@@ -50,12 +51,13 @@ def test_a_live_identifier_fed_by_play_agrees_with_offline_identification(simula
         assert online[name] == pytest.approx(value, rel=1e-9)
 
 
-def test_echo_prints_yaml_documents_with_long_arrays_shortened(simulated):
+def test_echo_prints_yaml_documents_with_long_arrays_shortened(simulated, ros_env):
     with processes() as start:
-        echo = start([EMLA, 'echo', '/emla/current', '--count', '3', '-l', '5', '--timeout', '60'])
-        full = start([EMLA, 'echo', '/emla/position', '--count', '2', '-l', '5', '--full-length', '--timeout', '60'])
+        echo = start([EMLA, 'echo', '/emla/current', '--count', '3', '-l', '5', '--timeout', '60'], env=ros_env)
+        full = start([EMLA, 'echo', '/emla/position', '--count', '2', '-l', '5', '--full-length', '--timeout', '60'],
+                     env=ros_env)
         play = start([EMLA, 'play', str(simulated), '--rate', '1', '--wait', '60',
-                      '--topics', '/emla/current', '/emla/position'])
+                      '--topics', '/emla/current', '/emla/position'], env=ros_env)
         outputs = [proc.communicate(timeout=120) for proc in (echo, full, play)]
     assert [p.returncode for p in (echo, full, play)] == [0, 0, 0], outputs
     docs = [d for d in yaml.safe_load_all(outputs[0][0]) if d]
@@ -66,9 +68,9 @@ def test_echo_prints_yaml_documents_with_long_arrays_shortened(simulated):
     assert len(first['data']) == 1 and len(second['data']) == 100   # the state at t = 0, then a full frame
 
 
-def test_echo_without_a_publisher_is_one_clear_line():
+def test_echo_without_a_publisher_is_one_clear_line(ros_env):
     with processes() as start:
-        echo = start([EMLA, 'echo', '/emla/nothing', '--timeout', '1'])
+        echo = start([EMLA, 'echo', '/emla/nothing', '--timeout', '1'], env=ros_env)
         out, err = echo.communicate(timeout=60)
     assert echo.returncode == 1 and out == ''
     assert err.strip().count('\n') == 0 and 'no publisher of /emla/nothing within 1 s' in err

@@ -8,8 +8,9 @@ import pytest
 import yaml
 from rosbags.highlevel import AnyReader
 
+from emla_control.launcher import reserved_domain
 from emla_sim.bag import read_bag, typestore
-from ros_isolation import VENV_BIN, processes
+from ros_isolation import VENV_BIN, isolated_env, processes
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -44,11 +45,18 @@ print('published', flush=True)
 '''
 
 
-def start_recorder(start, tmp_path, bag):
+@pytest.fixture
+def ros_env():
+    """The environment of a ROS domain no other launch or test of these files uses meanwhile (locked)."""
+    with reserved_domain() as domain:
+        yield isolated_env(ROS_DOMAIN_ID=domain)
+
+
+def start_recorder(start, tmp_path, bag, env):
     params = tmp_path / 'recorder.yaml'
     params.write_text(yaml.safe_dump({'/emla/recorder': {'ros__parameters': {
         'bag': str(bag), 'scenario': 'test', 'split_size': 32 * 1024, 'hold_start': True}}}))
-    return start([str(VENV_BIN / 'emla'), 'run', 'recorder', '--params-file', str(params)])
+    return start([str(VENV_BIN / 'emla'), 'run', 'recorder', '--params-file', str(params)], env=env)
 
 
 def frame_values(bag, topic):
@@ -58,11 +66,11 @@ def frame_values(bag, topic):
                          for c, _, raw in reader.messages([c for c in reader.connections if c.topic == topic])])
 
 
-def test_clean_stop_keeps_every_frame_and_the_true_parameters(tmp_path):
+def test_clean_stop_keeps_every_frame_and_the_true_parameters(tmp_path, ros_env):
     bag = tmp_path / 'bag'
     with processes() as start:
-        recorder = start_recorder(start, tmp_path, bag)
-        publisher = start([sys.executable, '-c', PUBLISHER, '1500'])
+        recorder = start_recorder(start, tmp_path, bag, ros_env)
+        publisher = start([sys.executable, '-c', PUBLISHER, '1500'], env=ros_env)
         assert publisher.wait(timeout=60) == 0, publisher.stderr.read()
         recorder.send_signal(signal.SIGINT)
         assert recorder.wait(timeout=20) == 0, recorder.stderr.read()
@@ -76,11 +84,11 @@ def test_clean_stop_keeps_every_frame_and_the_true_parameters(tmp_path):
     np.testing.assert_array_equal(frame_values(bag, '/emla/current'), np.arange(1500.0))
 
 
-def test_sigkill_leaves_a_readable_bag(tmp_path):
+def test_sigkill_leaves_a_readable_bag(tmp_path, ros_env):
     bag = tmp_path / 'bag'
     with processes() as start:
-        recorder = start_recorder(start, tmp_path, bag)
-        publisher = start([sys.executable, '-c', PUBLISHER, '5000'])
+        recorder = start_recorder(start, tmp_path, bag, ros_env)
+        publisher = start([sys.executable, '-c', PUBLISHER, '5000'], env=ros_env)
         assert publisher.stdout.readline().strip() == 'publishing'
         time.sleep(1.5)
         recorder.send_signal(signal.SIGKILL)

@@ -17,11 +17,14 @@ from emla_sim.nodes import common
 from emla_sim.parameters import ActuatorParameters
 
 BLOCK = 100  # control periods of reference evaluated at once
+# Closed-loop bandwidth for the default 1 ms control period, where it tracks best (12 um RMS on the default
+# stroke in simulation); the library's default suits 10 kHz control and saturates the voltage at 1 kHz.
+BANDWIDTH = 150.0  # Hz
 
 SPECS = [
     common.Spec('sample_period', 1e-4, 'sample period Ts, s', 1e-6, 1e-2),
     common.Spec('control_period', 1e-3, 'control period Tc (a whole multiple of Ts), s', 1e-6, 1.0),
-    common.Spec('bandwidth', law.DEFAULT_BANDWIDTH, 'closed-loop bandwidth, Hz', 0.1, 1e4),
+    common.Spec('bandwidth', BANDWIDTH, 'closed-loop bandwidth, Hz', 0.1, 1e4),
     common.Spec('damping_ratio', law.DEFAULT_DAMPING, 'closed-loop damping ratio, 1', 0.05, 10.0),
     common.Spec('observer_bandwidth', law.DEFAULT_OBSERVER_BANDWIDTH, 'velocity observer bandwidth, Hz', 0.1, 1e5),
     common.Spec('stroke', StrokeReference.stroke, 'reference stroke, m', 1e-6, 1.0),

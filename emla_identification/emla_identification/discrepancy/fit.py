@@ -35,7 +35,7 @@ import numpy as np
 from scipy.signal import lfilter
 
 from emla_identification.greybox import _coil_parameters, _force_parameters
-from emla_identification.regressors import emf_lag, rows, tie
+from emla_identification.regressors import rows, tie
 
 from .data import State, regression_rows
 

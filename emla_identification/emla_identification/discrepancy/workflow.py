@@ -8,8 +8,9 @@ model fitted to the others, and
     score = sum over the equations of (held-out residual sum of squares the candidate removes)
             / (the base model's held-out residual sum of squares),
 
-i.e. the fraction of the base model's out-of-sample one-step error the effect explains. A candidate is
-significant when
+i.e. the fraction of the base model's out-of-sample one-step error the effect explains (the mechanical
+equation's error after the noise-whitening prefilter of fit.py). The best-scoring candidate is named if it
+is significant, which it is when
   1. it improves the held-out error in at least MIN_BLOCKS of the FOLDS blocks: a sign test on whole
      blocks, valid however coloured the residuals are inside a block (9 of 10 by chance: p = 0.011),
   2. its score is at least MIN_SCORE: with N ~ 1e4..1e5 samples any term correlated with a tiny structural
@@ -40,7 +41,6 @@ MIN_SCORE = 0.05
 MIN_T = 3.0
 SMOOTHING = 1e-3   # s, of the residuals binned against the signals
 EQUATION = {'electrical': 'electrical', 'mechanical': 'mechanical', 'force': 'mechanical'}   # regression kinds
-
 
 
 def method(data):
