@@ -80,6 +80,7 @@ class PlantNode(common.EmlaNode):
         self.parameters_step = common.to_ns(p.parameters_period)
         self.sample_period = p.sample_period
         self.period = 0
+        self.wall_start = None  # wall clock at the first command (for the realtime factor)
         self.commands = {}  # stamp -> voltages
         self.frames = common.frame_publishers(self, common.PLANT_TOPICS)
         self.truth = self.create_publisher(ParameterEstimate, common.TRUE_PARAMETERS_TOPIC, common.LATCHED_QOS)
@@ -139,13 +140,14 @@ class PlantNode(common.EmlaNode):
                                                    std=dict.fromkeys(PARAMETER_NAMES, 0.0)))
 
     def finish(self):
+        wall = time.monotonic() - self.wall_start
         self.done.publish(common.time_msg(self.now))
+        self.get_logger().info(f'done at t = {self.now * 1e-9:g} s; from the first command to the last frame: '
+                               f'wall time {wall:.3f} s, realtime factor {self.now * 1e-9 / wall:.3f}')
         deadline = time.monotonic() + ACK_TIMEOUT
         for publisher in (*self.frames.values(), self.truth, self.done):
-            publisher.wait_for_all_acked(Duration(seconds=max(0.0, deadline - time.monotonic())))
-        wall = time.monotonic() - self.wall_start
-        self.get_logger().info(f'done at t = {self.now * 1e-9:g} s; from the first command on: wall time '
-                               f'{wall:.3f} s, realtime factor {self.now * 1e-9 / wall:.3f}')
+            t0 = time.monotonic(); ok = publisher.wait_for_all_acked(Duration(seconds=max(0.0, deadline - time.monotonic())))
+            self.get_logger().info(f'ack {publisher.topic_name} {ok} {time.monotonic() - t0:.3f} s subs {publisher.get_subscription_count()}')
         self.finished = True
 
 
