@@ -126,6 +126,7 @@ def run_graph(monkeypatch, tmp_path):
         spin_until(executor, lambda: late, 10)
         for name in others:
             procs[name].send_signal(signal.SIGTERM)
+        for name in others:
             wait_exit(procs[name])
     assert common.stamp_ns(late[0].header.stamp) == PERIODS * MS and late[0].samples_used == PERIODS * SAMPLES
     return listener

@@ -41,7 +41,10 @@ _MAX_CONDITION = 1e12   # normalised information matrix above this: a parameter 
 class LagMoments:
     """The squared-weight moments the noise model needs, over a stream of rows z = [phi, y] in any frames:
     moments[d] = sum_k w_k^2 z_k z_(k-d)' for d = 0 .. HISTORY and weight = sum_k w_k^2, with the least-squares
-    weights w_k = lambda^(N-k) (a weighted estimate's error sum_k w_k phi_k e_k has w^2 in its covariance)."""
+    weights w_k = lambda^(N-k) (a weighted estimate's error sum_k w_k phi_k e_k has w^2 in its covariance).
+
+    Per update one product z' z_lagged per lag, on views of the rows with the previous update's last HISTORY
+    in front (no lagged copy of the rows)."""
 
     def __init__(self, width, forgetting=1.0):
         self.forgetting = forgetting
@@ -53,9 +56,7 @@ class LagMoments:
         m = len(z)
         if m == 0:
             return
-        width = z.shape[1]
         rows_ = np.concatenate((self._tail, z))
-        lagged = np.hstack([rows_[HISTORY - d:HISTORY - d + m] for d in range(HISTORY + 1)])
         if self.forgetting == 1.0:
             self.weight += m
         else:
@@ -64,8 +65,9 @@ class LagMoments:
             z = z * weights[:, None]
             self.moments *= squared ** m
             self.weight = squared ** m * self.weight + weights.sum()
-        self.moments += (z.T @ lagged).reshape(width, HISTORY + 1, width).transpose(1, 0, 2)
-        self._tail = rows_[-HISTORY:]
+        for d in range(HISTORY + 1):
+            self.moments[d] += z.T @ rows_[HISTORY - d:HISTORY - d + m]
+        self._tail = rows_[-HISTORY:].copy()  # not a view: that would keep all of rows_ alive
 
 
 @dataclass(frozen=True)
@@ -146,11 +148,26 @@ def physical(model, statistics, sample_period):
         for part in covariances.values():  # the regressions' coefficients taken as independent
             covariance[start:start + len(part), start:start + len(part)] = part
             start += len(part)
-        names, function = ((MODEL_PARAMETERS['mechanical'], _force_parameters) if 'force' in statistics
-                           else (PARAMETER_NAMES, _coil_parameters))
+        names, function = _parameter_function(statistics)
         values, covariance = _propagate(function, vector, covariance, sample_period)
     keep = [names.index(n) for n in MODEL_PARAMETERS[model]]
     return MODEL_PARAMETERS[model], values[keep], covariance[np.ix_(keep, keep)]
+
+
+def physical_values(model, statistics, sample_period):
+    """(names, values) as physical() gives them, without the noise model and uncertainties (most of its cost)."""
+    with np.errstate(all='ignore'):
+        vector = np.concatenate([theta for _, theta in _restricted(statistics).values()])
+        names, function = _parameter_function(statistics)
+        values = function(vector[None], sample_period)[0]
+    return MODEL_PARAMETERS[model], values[[names.index(n) for n in MODEL_PARAMETERS[model]]]
+
+
+def _parameter_function(statistics):
+    """(parameter names, function of the restricted coefficients) for these regressions."""
+    if 'force' in statistics:
+        return MODEL_PARAMETERS['mechanical'], _force_parameters
+    return PARAMETER_NAMES, _coil_parameters
 
 
 def _restricted(statistics):
@@ -278,26 +295,36 @@ def identify(recording, model=None, forgetting=1.0, *, initial_covariance=1e6, p
     tracks, lags = {}, {}
     for j, kind in enumerate(kinds):
         phi, y = rows(kind, recording.signals, ts)
-        _check_excitation(phi, kind, source)
+        _check_excitation(phi.T @ phi, kind, source)
         tracks[kind] = offline.trajectory(phi, y, every, forgetting=lam, initial_covariance=initial_covariance)
         lags[kind] = _lag_trajectory(np.column_stack((phi, y)), tracks[kind].samples, lam)
         report((j + 1) / (len(kinds) + 1))
     ends = next(iter(tracks.values())).samples
+    snapshots = [{kind: Statistics(t.theta[j], t.covariance[j], *lags[kind][j], lam) for kind, t in tracks.items()}
+                 for j in range(len(ends))]
+    return _result(model, snapshots, ends, recording, n, lam,
+                   lambda j: report((len(kinds) + (j + 1) / len(ends)) / (len(kinds) + 1)))
+
+
+def _result(model, snapshots, ends, recording, samples, forgetting, done=lambda j: None):
+    """The GreyBoxResult from {kind: Statistics} after rows [0, end) for each of `ends` (the last: all rows).
+
+    recording: the record or its first part (source, start time, sample period); done(j) after snapshot j."""
+    source, ts = recording.source or 'recording', recording.sample_period
     values, stds = [], []
-    for j in range(len(ends)):
-        stats = {kind: Statistics(t.theta[j], t.covariance[j], *lags[kind][j], lam) for kind, t in tracks.items()}
-        names, value, covariance = physical(model, stats, ts)
+    for j, statistics in enumerate(snapshots):
+        names, value, covariance = physical(model, statistics, ts)
         values.append(value)
         stds.append(np.sqrt(np.diag(covariance)))
-        report((len(kinds) + (j + 1) / len(ends)) / (len(kinds) + 1))
+        done(j)
     values, stds = np.array(values), np.array(stds)
     if not np.all(np.isfinite(values[-1])):
         raise InputError(f'{source}: the {model} model gives no finite estimate from these data')
-    trajectory = Trajectory(time=recording.start_time + (ends + HISTORY - 1) * ts,
+    trajectory = Trajectory(time=recording.start_time + (np.asarray(ends) + HISTORY - 1) * ts,
                             parameters=dict(zip(names, values.T)), std=dict(zip(names, stds.T)))
     return GreyBoxResult(model=model, parameters={k: float(v) for k, v in zip(names, values[-1])},
                          std={k: float(s) for k, s in zip(names, stds[-1])}, covariance=covariance,
-                         samples=n, sample_period=ts, forgetting=lam, trajectory=trajectory)
+                         samples=samples, sample_period=ts, forgetting=forgetting, trajectory=trajectory)
 
 
 def _lag_trajectory(z, ends, forgetting):
@@ -313,6 +340,14 @@ def _lag_trajectory(z, ends, forgetting):
 
 def _checked(recording, model, forgetting):
     """(model, regression kinds, lambda) for this recording, or InputError naming its source and the problem."""
+    model, kinds, lam = _setup(recording, model, forgetting)
+    _check_finite(recording, kinds)
+    _check_length(len(recording), model, recording.source)
+    return model, kinds, lam
+
+
+def _setup(recording, model, forgetting):
+    """(model, regression kinds, lambda) for the signals of `recording` (all of it, or its first part)."""
     source = recording.source or 'recording'
     model = model or default_model(recording.signals)
     if model is None:
@@ -323,19 +358,27 @@ def _checked(recording, model, forgetting):
         lam = forgetting_factor(forgetting)
     except ValueError as exc:
         raise InputError(f'{source}: {exc}') from None
-    for name in sorted({s for kind in kinds for s in SIGNALS[kind]}):
-        bad = ~np.isfinite(recording.signals[name])
-        if bad.any():
-            raise InputError(f'{source}: non-finite {name} at sample {int(np.argmax(bad))}')
-    if len(recording) - HISTORY < MIN_ROWS:
-        raise InputError(f'{source}: {len(recording)} samples are too few for the {model} model '
-                         f'(needs at least {MIN_ROWS + HISTORY})')
     return model, kinds, lam
 
 
-def _check_excitation(phi, kind, source):
-    """InputError when the regressors do not excite every coefficient (e.g. the actuator never moved)."""
-    gram = phi.T @ phi
+def _check_finite(recording, kinds, first=0):
+    """InputError at the first non-finite sample of the signals `kinds` use; `first`: index of sample 0."""
+    for name in sorted({s for kind in kinds for s in SIGNALS[kind]}):
+        bad = ~np.isfinite(recording.signals[name])
+        if bad.any():
+            raise InputError(f'{recording.source or "recording"}: non-finite {name} at sample '
+                             f'{first + int(np.argmax(bad))}')
+
+
+def _check_length(samples, model, source):
+    if samples - HISTORY < MIN_ROWS:
+        raise InputError(f'{source or "recording"}: {samples} samples are too few for the {model} model '
+                         f'(needs at least {MIN_ROWS + HISTORY})')
+
+
+def _check_excitation(gram, kind, source):
+    """InputError when the regressors do not excite every coefficient (e.g. the actuator never moved); gram:
+    sum of phi phi' over the rows."""
     scale = np.sqrt(np.diag(gram))
     if np.any(scale == 0) or np.linalg.cond(gram / np.outer(scale, scale)) > _MAX_CONDITION:
         raise InputError(f'{source}: the data do not excite the {kind} equation enough to identify '

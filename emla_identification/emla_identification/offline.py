@@ -9,7 +9,8 @@ holds the information matrix R (top-left n x n), the vector r (last column) and 
 S_yy - r' theta_N its weighted residual sum of squares. Rows are read in chunks of at most 65536;
 S is carried across chunks as S <- lambda^m S + (chunk sum weighted relative to the chunk's end). A chunk
 is short enough that lambda^-m <= e^300, so no intermediate overflows; weights that underflow belong to
-samples forgotten long ago (lambda^N itself underflows harmlessly on long records).
+samples forgotten long ago (lambda^N itself underflows harmlessly on long records). WeightedAccumulator
+carries S the same way across chunks its caller feeds, for records that are never whole in memory.
 
 Inputs must be finite (ValueError otherwise); RecursiveLeastSquares instead skips non-finite samples.
 """
@@ -19,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .rls import check_regression, forgetting_factor, prior
+from .rls import check_order, check_regression, forgetting_factor, prior
 
 _CHUNK_ROWS = 65536
 _MAX_BLOCKS = 4096      # bounds the (blocks, n+1, n+1) intermediates of trajectory()
@@ -61,6 +62,42 @@ def trajectory(Phi, Y, every, *, forgetting=1.0, memory_time=None, sample_period
                                initial_covariance, initial_theta))
 
 
+class WeightedAccumulator:
+    """weighted_least_squares fed chunk by chunk: add rows as they come, estimate() at any time.
+
+    Holds S only ((n+1) x (n+1)), carried across chunks as within one; estimate() equals weighted_least_squares
+    on all rows added so far, to rounding."""
+
+    def __init__(self, n, *, forgetting=1.0, memory_time=None, sample_period=None, initial_covariance=1e6,
+                 initial_theta=None):
+        self.n = check_order(n)
+        self.forgetting = forgetting_factor(forgetting, memory_time, sample_period)
+        self._S = _initial_state(self.n, initial_covariance, initial_theta)
+        self.samples = 0
+
+    def add(self, Phi, Y):
+        """Rows Phi (m x n) and outputs Y (m,)."""
+        Phi, Y = check_regression(Phi, Y, self.n)
+        self._add(len(Y), lambda start, stop: np.column_stack((Phi[start:stop], Y[start:stop])))
+
+    def add_stacked(self, Z):
+        """Rows z = [phi, y] as one (m, n + 1) array (no copy of the rows is made)."""
+        Z = np.asarray(Z, dtype=float)
+        if Z.ndim != 2 or Z.shape[1] != self.n + 1:
+            raise ValueError(f'stacked rows must be an (m, {self.n + 1}) array, got shape {Z.shape}')
+        self._add(len(Z), lambda start, stop: Z[start:stop])
+
+    def _add(self, m, stacked):
+        if m:
+            _, S = _stacked_states(stacked, m, self.forgetting, self._S, m)
+            self._S = S[-1]
+            self.samples += m
+
+    def estimate(self):
+        """The WeightedEstimate after the rows added so far."""
+        return _solve(self.samples, self._S, self.forgetting)
+
+
 def _accumulate(Phi, Y, every, forgetting, memory_time, sample_period, initial_covariance, initial_theta):
     """(samples, S, lambda) at the block ends; every=None: one block, the whole record."""
     Phi = np.asarray(Phi, dtype=float)
@@ -69,32 +106,48 @@ def _accumulate(Phi, Y, every, forgetting, memory_time, sample_period, initial_c
     n = Phi.shape[1]
     Phi, Y = check_regression(Phi, Y, n)
     lam = forgetting_factor(forgetting, memory_time, sample_period)
+    S0 = _initial_state(n, initial_covariance, initial_theta)
+    if len(Y) == 0:
+        return np.zeros(1, dtype=np.int64), S0[None], lam
+    return (*_states(Phi, Y, lam, S0, every or len(Y)), lam)
+
+
+def _initial_state(n, initial_covariance, initial_theta):
+    """S_0 of the prior (theta0, P0)."""
     theta0, P0 = prior(n, initial_covariance, initial_theta)
     R0 = np.linalg.inv(P0)
     S0 = np.empty((n + 1, n + 1))
     S0[:n, :n] = R0
     S0[:n, n] = S0[n, :n] = R0 @ theta0
     S0[n, n] = theta0 @ R0 @ theta0
-    if len(Y) == 0:
-        return np.zeros(1, dtype=np.int64), S0[None], lam
-    return (*_states(Phi, Y, lam, S0, every or len(Y)), lam)
+    return S0
 
 
 def _states(Phi, Y, lam, S0, every):
     """S after rows [0, k) for k = every, 2 every, ..., N."""
-    N, n = Phi.shape
+    n = Phi.shape[1]
+
+    def stacked(start, stop):
+        Z = np.empty((stop - start, n + 1))
+        Z[:, :n] = Phi[start:stop]
+        Z[:, n] = Y[start:stop]
+        return Z
+    return _stacked_states(stacked, len(Y), lam, S0, every)
+
+
+def _stacked_states(stacked, N, lam, S0, every):
+    """_states over rows z = [phi, y] given as stacked(start, stop) -> the (stop - start, n + 1) array of rows."""
     span = _CHUNK_ROWS if lam == 1.0 else max(1, min(_CHUNK_ROWS, int(_MAX_LOG_DECAY / -math.log(lam))))
     # chunks hold whole blocks when blocks are short; long blocks span chunks, which then end on block ends
     rows = every * min(span // every, _MAX_BLOCKS) if every <= span else span
     group = min(every, rows)
-    weights = lam ** np.arange(group - 1, -1, -1.0)  # weights[-m:]: m rows weighted relative to the last
+    # weights[-m:]: m rows weighted relative to the last; None: all ones (no forgetting)
+    weights = None if lam == 1.0 else lam ** np.arange(group - 1, -1, -1.0)
     S, ends, states = S0, [], []
     start = 0
     while start < N:
         stop = min(start + rows, N, (start // every + 1) * every if every > rows else N)
-        Z = np.empty((stop - start, n + 1))
-        Z[:, :n] = Phi[start:stop]
-        Z[:, n] = Y[start:stop]
+        Z = stacked(start, stop)
         finite = np.isfinite(Z).all(axis=1)
         if not finite.all():
             raise ValueError(f'non-finite regressor or output in row {start + int(np.argmin(finite))}')
@@ -116,13 +169,18 @@ def _group_sums(Z, group, weights):
     sums, ends = [], []
     if full:
         Zf = Z[:full * group].reshape(full, group, -1)
-        sums.append(np.matmul((Zf * weights[-group:, None]).transpose(0, 2, 1), Zf))
+        sums.append(np.matmul(_weighted(Zf, weights).transpose(0, 2, 1), Zf))
         ends.append(np.arange(1, full + 1) * group)
     if m > full * group:
         Zp = Z[full * group:]
-        sums.append(((Zp * weights[-len(Zp):, None]).T @ Zp)[None])
+        sums.append((_weighted(Zp, weights).T @ Zp)[None])
         ends.append(np.array([m]))
     return np.concatenate(sums), np.concatenate(ends)
+
+
+def _weighted(Z, weights):
+    """Rows (along the second-last axis) times the last len(rows) weights."""
+    return Z if weights is None else Z * weights[-Z.shape[-2]:, None]
 
 
 def _solve(samples, S, lam):

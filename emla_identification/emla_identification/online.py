@@ -1,8 +1,8 @@
 """Online grey-box identification from frames of consecutive samples (the identifier node, the closed loop).
 
 The rows are those of regressors.py, computed per frame with the last HISTORY samples of the previous frame
-in front, so the stream yields exactly the rows of the whole record; each regression runs its own
-RecursiveLeastSquares over them. The physical parameters are formed from the recursions' states by
+in front (streaming.RowStream), so the stream yields exactly the rows of the whole record; each regression runs
+its own RecursiveLeastSquares over them. The physical parameters are formed from the recursions' states by
 greybox.physical, as greybox.identify forms them from the batch solution: with forgetting 1 the final
 estimate equals greybox.identify on the same samples (to rounding).
 """
@@ -10,10 +10,10 @@ import math
 
 import numpy as np
 
-from .greybox import LagMoments, Statistics, physical
-from .regressors import COLUMNS, HISTORY, SIGNALS, regressions_for
-from .regressors import rows as regression_rows
+from .greybox import LagMoments, Statistics, physical, physical_values
+from .regressors import COLUMNS, SIGNALS, regressions_for
 from .rls import RecursiveLeastSquares
+from .streaming import RowStream
 
 
 class OnlineIdentifier:
@@ -22,7 +22,8 @@ class OnlineIdentifier:
     signals: the signals the frames carry, by default the coil signals (voltage, current, position); give
     ('force', 'position') for mechanical-only data. Memory: a forgetting factor or a memory time constant
     (s); neither means no forgetting. update() costs about 1.5 us per sample (full model, frames of 100);
-    estimate() about 0.5 ms, so call it at the rate the estimates are used, not per sample.
+    estimate() about 0.5-2 ms (its noise model), so call it at the rate the uncertainties are used; values()
+    gives the parameters alone for a small fraction of that.
     """
 
     def __init__(self, sample_period, model='full', *, forgetting=None, memory_time=None,
@@ -32,7 +33,7 @@ class OnlineIdentifier:
         self.sample_period = float(sample_period)
         self.model = model
         self.kinds = regressions_for(model, signals)
-        self._signals = sorted({s for kind in self.kinds for s in SIGNALS[kind]})
+        self._stream = RowStream(self.kinds, self.sample_period)
         self._rls = {kind: RecursiveLeastSquares(len(COLUMNS[kind]), forgetting=1.0 if forgetting is None
                                                  else forgetting, memory_time=memory_time,
                                                  sample_period=self.sample_period,
@@ -45,23 +46,16 @@ class OnlineIdentifier:
         for rls in self._rls.values():
             rls.reset()
         self._lags = {kind: LagMoments(rls.n + 1, rls.forgetting) for kind, rls in self._rls.items()}
-        self._tail = {name: np.empty(0) for name in self._signals}
-        self._samples = 0
+        self._stream.reset()
         self._residual_rms = math.nan
 
     def update(self, voltage=None, current=None, position=None, *, force=None):
         """Feed one frame (1-D arrays of equal length of the identifier's signals)."""
         given = {'voltage': voltage, 'current': current, 'position': position, 'force': force}
-        frame = {}
-        for name in self._signals:
-            if given[name] is None:
-                raise ValueError(f'the {self.model} identifier needs {", ".join(self._signals)} in each frame')
-            frame[name] = np.concatenate((self._tail[name], np.asarray(given[name], dtype=float).reshape(-1)))
-        lengths = {len(v) - len(self._tail[k]) for k, v in frame.items()}
-        if len(lengths) != 1:
-            raise ValueError(f'frame signals have different lengths {sorted(lengths)}')
-        for kind, rls in self._rls.items():
-            phi, y = regression_rows(kind, frame, self.sample_period)
+        if any(given[name] is None for name in self._stream.signals):
+            raise ValueError(f'the {self.model} identifier needs {", ".join(self._stream.signals)} in each frame')
+        for kind, (phi, y) in self._stream.rows(given).items():
+            rls = self._rls[kind]
             errors = rls.update_block(phi, y)
             z = np.column_stack((phi, y))
             z[~np.isfinite(z).all(axis=1)] = 0.0  # skipped by the recursion: no contribution, lags kept aligned
@@ -71,13 +65,11 @@ class OnlineIdentifier:
                 # a-priori current error over beta = voltage-equation error (V)
                 with np.errstate(all='ignore'):  # NaN before beta is identified
                     self._residual_rms = float(np.sqrt(errors @ errors / len(errors)) / rls.theta[1])
-        self._tail = {name: values[-HISTORY:] for name, values in frame.items()}
-        self._samples += lengths.pop()
 
     @property
     def samples(self):
         """Samples fed since the last reset."""
-        return self._samples
+        return self._stream.samples
 
     @property
     def residual_rms(self):
@@ -89,12 +81,19 @@ class OnlineIdentifier:
         names, values, covariance = self._physical()
         return dict(zip(names, values.tolist())), dict(zip(names, np.sqrt(np.diag(covariance)).tolist()))
 
+    def values(self):
+        """{name: value} as estimate() gives them, without the uncertainties' noise model (for per-frame use)."""
+        names, values = physical_values(self.model, self._statistics(), self.sample_period)
+        return dict(zip(names, values.tolist()))
+
     def covariance(self):
         """(names, covariance matrix) of the model's parameters."""
         names, _, covariance = self._physical()
         return names, covariance
 
     def _physical(self):
-        statistics = {kind: Statistics(rls.theta, rls.covariance, self._lags[kind].moments, self._lags[kind].weight,
-                                       rls.forgetting) for kind, rls in self._rls.items()}
-        return physical(self.model, statistics, self.sample_period)
+        return physical(self.model, self._statistics(), self.sample_period)
+
+    def _statistics(self):
+        return {kind: Statistics(rls.theta, rls.covariance, self._lags[kind].moments, self._lags[kind].weight,
+                                 rls.forgetting) for kind, rls in self._rls.items()}

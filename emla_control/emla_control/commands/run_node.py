@@ -4,6 +4,8 @@ The node gets `--ros-args --params-file FILE` (a ROS 2 YAML params file; default
 config/<node>.yaml). SIGINT/SIGTERM stop it cleanly (exit status 0).
 """
 import importlib
+import signal
+import sys
 from pathlib import Path
 
 from emla_sim.errors import InputError
@@ -31,4 +33,6 @@ def run(args):
         if not Path(args.params_file).is_file():
             raise InputError(f'{args.params_file}: no such params file')
         ros_args = ['--ros-args', '--params-file', args.params_file]
+    for signum in (signal.SIGINT, signal.SIGTERM):  # until the node takes over: stop at once, cleanly
+        signal.signal(signum, lambda *_: sys.exit(0))
     return importlib.import_module(NODES[args.node]).main([f'emla-{args.node}', *ros_args])

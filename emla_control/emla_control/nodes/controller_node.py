@@ -113,6 +113,7 @@ class ControllerNode(common.EmlaNode):
             self.block = (first, midpoints, samples)
         return midpoints[period - first], samples[period - first]
 
+
 def main(args=None):
     return common.run(ControllerNode, args)
 

@@ -29,12 +29,18 @@ SPECS = [
 ]
 
 
+def estimate(identifier):
+    """(values, std, (names, covariance)) of the estimator now."""
+    with np.errstate(invalid='ignore'):  # NaN std (negative variance) before enough excitation
+        return (*identifier.estimate(), identifier.covariance())
+
+
 def warm_up(identifier):
     """Run the estimator's compiled kernels once (about 0.5 s the first time), before the node subscribes:
     the plant starts only then, so the first frames do not pile up (a non-adaptive loop does not wait)."""
     ramp = np.linspace(0.0, 1.0, 32)
     identifier.update(ramp, ramp, ramp)
-    identifier.estimate()
+    estimate(identifier)
 
 
 class IdentifierNode(common.EmlaNode):
@@ -56,7 +62,8 @@ class IdentifierNode(common.EmlaNode):
         self.end = None  # end of the run, from /emla/plant/done
         self.estimates = self.create_publisher(ParameterEstimate, common.ESTIMATE_TOPIC, common.LATCHED_QOS)
         self.diagnostics = self.create_publisher(DiagnosticArray, common.DIAGNOSTICS_TOPIC, common.DIAGNOSTICS_QOS)
-        self.samples = common.AlignedSamples(self, common.MEASURED_TOPICS, self.on_samples, p.sample_period)
+        self.samples = common.AlignedSamples(self, common.MEASURED_TOPICS, self.on_samples, p.sample_period,
+                                             self.publish_step)
         self.create_subscription(Time, common.DONE_TOPIC, self.on_done, common.LATCHED_QOS)
 
     def on_samples(self, start, samples):
@@ -71,8 +78,7 @@ class IdentifierNode(common.EmlaNode):
             self.publish()
 
     def publish(self):
-        values, std = self.identifier.estimate()
-        names, covariance = self.identifier.covariance()
+        values, std, (names, covariance) = estimate(self.identifier)
         stamp = common.time_msg(self.covered)
         self.estimates.publish(common.estimate_message(self.covered, values, std, (names, covariance),
                                                        self.identifier.samples, self.identifier.residual_rms))

@@ -21,8 +21,9 @@ Aligned by stamp (as emla_sim.bag.read_bag does), the state samples at t_j pair 
 | /emla/voltage_command, /emla/reference | emla_msgs/SampleFrame           | controller | FRAME   |
 | /emla/parameters                       | emla_msgs/ParameterEstimate     | identifier | LATCHED |
 | /diagnostics                           | diagnostic_msgs/DiagnosticArray | identifier | DIAGNOSTICS |
-FRAME: reliable, transient local, keep last 1000 (1 s of the default frames: a reader outside the loop, such
-as the non-adaptive identifier or a recorder, may lag that much); LATCHED: reliable, transient local, keep last 1;
+FRAME: reliable, transient local, keep last 1000 (1 s of default frames: a reader outside the loop, such as a
+non-adaptive controller's identifier or a recorder, may lag that much without losing frames);
+LATCHED: reliable, transient local, keep last 1 (a late subscriber gets the latest);
 CLOCK: best effort, volatile, keep last 1 (as rclpy's time source subscribes); DIAGNOSTICS: reliable, 10.
 
 Deterministic lockstep in simulated time:
@@ -31,34 +32,38 @@ Deterministic lockstep in simulated time:
 2. Sensor: measures each state frame (pairs /emla/plant/current and /position by stamp) and publishes it with
    the same stamp; voltage frames pass unchanged to /emla/voltage.
 3. Controller: from the last sample of each measured state frame (time t = stamp + (size - 1) Ts) it computes
-   the command for the period starting at t (n equal values, stamp t) and the reference it tracks.
+   the command for the period starting at t (n equal values, stamp t) and the reference it tracks (also
+   after the final frame: that command, for the period after the end, goes unused).
 4. Plant: advances period k only with the command stamped k Tc in hand; publishes its voltage and state
    frames, then /clock = (k+1) Tc.
 5. Identifier: feeds the aligned samples in time order to the estimator and publishes /emla/parameters at
    every multiple of `publish_period` that ends a period, stamped with the END of the data it covers: the
    estimate stamped t has used every voltage interval before t. An adaptive controller (its
    `adaptation_period` is a multiple of that publish_period) waits before the command for each period
-   starting at t = j adaptation_period (j >= 1) for exactly the estimate stamped t. Lag: the model changes
-   at t with the data up to t, like the in-process loop (emla_control.loop).
+   starting at t = j adaptation_period (j >= 1) for exactly the estimate stamped t. Lag: the command held from
+   t on uses the estimate from all the data before t (as the in-process loop, emla_control.loop, does), so a
+   plant change reaches the model at the next adaptation instant, up to adaptation_period later (plus the
+   estimator's own memory).
 Every message travels on a reliable, in-order topic and each node computes from its inputs alone, so a run's
 samples do not depend on scheduling. Frames are transient local so that a reader that matches a publisher
 late (start-up) still gets them; nothing is in flight in the loop beyond one period.
 
 Done signal: with duration > 0 the plant advances round(duration / Tc) periods, publishes the final frames,
-the final true parameters and /emla/plant/done (builtin_interfaces/Time: the end time, latched), waits
-(bounded, 5 s) until every reader acknowledged its messages, and exits 0. The identifier then publishes its
+the final true parameters and /emla/plant/done (builtin_interfaces/Time: the end time, latched), and exits 0
+once every reader acknowledged its messages (see wait_for_acknowledgements). The identifier then publishes its
 final estimate stamped with that end time (if that was not a publishing instant anyway): the last
 /emla/parameters message covers every sample the plant produced. A launcher waits for it, then stops the
 other nodes with SIGTERM.
 
 Each node: parameters declared read-only with descriptors (range, units in the description), defaults in the
-package's config/<node>.yaml; SIGINT/SIGTERM end it cleanly with exit status 0; bad parameters end it with one
-line on stderr and exit status 2.
+package's config/<node>.yaml; SIGINT/SIGTERM end it cleanly with exit status 0 (after the acknowledgements
+of what it published, at most ACK_TIMEOUT); bad parameters end it with one line on stderr and exit status 2.
 """
 import array
 import dataclasses
 import signal
 import sys
+import time
 import types
 
 import numpy as np
@@ -66,6 +71,7 @@ import rclpy
 from builtin_interfaces.msg import Time
 from emla_msgs.msg import ParameterEstimate, SampleFrame
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rclpy.duration import Duration
 from rclpy.exceptions import ParameterException
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
@@ -95,6 +101,7 @@ LATCHED_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=R
                          durability=DurabilityPolicy.TRANSIENT_LOCAL)
 CLOCK_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
 DIAGNOSTICS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.RELIABLE)
+ACK_TIMEOUT = 4.0  # s a stopping node waits for its readers' acknowledgements
 
 
 # ---- time: integer nanoseconds, so that stamps of consecutive periods are exact ----
@@ -169,44 +176,49 @@ class FrameSets:
 
 
 class AlignedSamples:
-    """Subscribes to a voltage and two state topics ({'voltage', 'current', 'position'}: topic) and calls
-    on_samples(start_ns, {name: array}) per voltage frame, with the state samples taken where each voltage
-    interval starts (the held last sample of the previous state frame, then all but the last of this one):
-    the Recording convention, the estimator's input."""
+    """Subscribes to frame topics {name: topic} of one sample period and calls on_samples(start_ns, {name:
+    array}) with the samples all of them have at the same instants, in time order, as soon as they have them,
+    in chunks that never straddle a multiple of `boundary` (ns), so those instants are always chunk ends.
+    The graph's frames (state frames one sample later than voltage frames) come out in the Recording
+    convention, the estimator's input: the state samples where each voltage interval starts. Frames aligned
+    already (a bag of `emla simulate` played) pass as they are."""
 
-    def __init__(self, node, topics, on_samples, sample_period):
+    def __init__(self, node, topics, on_samples, sample_period, boundary):
         self._on_samples = on_samples
         self._step = to_ns(sample_period)
-        self._voltages = {}  # stamp -> frame
-        self._states = {}  # stamp -> {'current': frame, 'position': frame}
-        self._held = None  # (time_ns, {'current': value, 'position': value}), the last state sample
-        self._subscriptions = (
-            FrameSets(node, {'voltage': topics['voltage']}, self._on_voltage, sample_period),
-            FrameSets(node, {name: topics[name] for name in ('current', 'position')}, self._on_states, sample_period))
+        self._boundary = boundary
+        self._cursor = None  # the first instant not passed on yet
+        self._queues = {name: [] for name in topics}  # name -> [(stamp, samples)] not passed on yet
+        self._frames = [FrameSets(node, {name: topic}, self._receive, sample_period)
+                        for name, topic in topics.items()]
 
-    def _on_voltage(self, stamp, sample_period, frames):
-        self._voltages[stamp] = frames['voltage']
-        self._flush()
-
-    def _on_states(self, stamp, sample_period, frames):
-        if self._held is None:  # the first state frame (the state at t = 0) only starts the pairing
-            self._hold(stamp + (len(frames['current']) - 1) * self._step, frames)
-        else:
-            self._states[stamp] = frames
-        self._flush()
-
-    def _hold(self, time, frames):
-        self._held = (time, {name: frame[-1:] for name, frame in frames.items()})
-
-    def _flush(self):
-        while self._held is not None:
-            start, held = self._held
-            if start not in self._voltages or start + self._step not in self._states:
+    def _receive(self, stamp, sample_period, frames):
+        ((name, samples),) = frames.items()
+        self._queues[name].append((stamp, samples))
+        while all(self._queues.values()):
+            if self._cursor is None:
+                self._cursor = max(queue[0][0] for queue in self._queues.values())
+            last_frames = (queue[-1] for queue in self._queues.values())
+            covered = min(stamp + len(samples) * self._step for stamp, samples in last_frames)
+            end = min(covered, (self._cursor // self._boundary + 1) * self._boundary)
+            if end <= self._cursor:
                 return
-            voltage, states = self._voltages.pop(start), self._states.pop(start + self._step)
-            samples = {name: np.concatenate((held[name], frame[:-1])) for name, frame in states.items()}
-            self._hold(start + len(voltage) * self._step, states)
-            self._on_samples(start, dict(samples, voltage=voltage))
+            chunk = {name: self._take(queue, end) for name, queue in self._queues.items()}
+            start, self._cursor = self._cursor, end
+            self._on_samples(start, chunk)
+
+    def _take(self, queue, end):
+        """The queued samples at the instants [cursor, end); later ones stay queued."""
+        parts = []
+        while queue:
+            stamp, samples = queue[0]
+            first, last = max(0, (self._cursor - stamp) // self._step), (end - stamp) // self._step
+            parts.append(samples[first:last])
+            if last < len(samples):
+                queue[0] = (stamp + last * self._step, samples[last:])
+                break
+            queue.pop(0)
+        return parts[0] if len(parts) == 1 else np.concatenate(parts)
 
 
 def frame_publishers(node, topics):
@@ -300,14 +312,24 @@ class EmlaNode(Node):
         self.finished = False
 
 
+def wait_for_acknowledgements(node, timeout=ACK_TIMEOUT):
+    """Wait (at most `timeout` s) until every reader acknowledged what `node` published: a reader that must
+    have a message resent (a recorder behind) would lose it once the node is gone. Fast DDS learns of the
+    acknowledgements at its next heartbeat, so this takes up to ~3 s."""
+    deadline = time.monotonic() + timeout
+    for publisher in node.publishers:
+        publisher.wait_for_all_acked(Duration(seconds=max(0.0, deadline - time.monotonic())))
+
+
 def run(node_class, args=None):
-    """Run one node (an EmlaNode class) until it finishes or SIGINT/SIGTERM arrives; the exit status.
+    """Run one node (an EmlaNode class) until it finishes or SIGINT/SIGTERM arrives, then wait for the
+    acknowledgements of what it published; the exit status.
 
     args: the command line with ROS arguments (default sys.argv)."""
     stopping = []
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, lambda *_: stopping.append(True))
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     try:
         node = node_class()
     except (InputError, ValueError, ParameterException) as error:
@@ -319,6 +341,7 @@ def run(node_class, args=None):
     try:
         while not stopping and not node.finished:
             executor.spin_once(timeout_sec=0.05)
+        wait_for_acknowledgements(node)
     finally:
         executor.shutdown()
         node.destroy_node()

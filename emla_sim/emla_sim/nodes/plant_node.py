@@ -8,7 +8,6 @@ import time
 
 from builtin_interfaces.msg import Time
 from emla_msgs.msg import ParameterEstimate, SampleFrame
-from rclpy.duration import Duration
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 
@@ -30,13 +29,13 @@ SPECS = [
     common.Spec('effect_parameters', Parameter.Type.STRING_ARRAY,
                 "settings of those effects, 'effect.field=value' (SI units, see emla_sim.effects)"),
     common.Spec('change_times', Parameter.Type.DOUBLE_ARRAY, 'times of step parameter changes, s'),
-    common.Spec('change_parameters', Parameter.Type.STRING_ARRAY, f'parameter each change scales, of {PARAMETER_NAMES}'),
+    common.Spec('change_parameters', Parameter.Type.STRING_ARRAY,
+                f'parameter each change scales, of {PARAMETER_NAMES}'),
     common.Spec('change_factors', Parameter.Type.DOUBLE_ARRAY, 'factor each change multiplies it by, 1'),
     common.Spec('parameters_period', 0.01,
                 'publish the true parameters at multiples of this (and after each change), s', 1e-6, 1e6),
     common.Spec('start_subscribers', 2, 'start once /emla/position has this many subscriptions, 1', 0, 1000),
 ]
-ACK_TIMEOUT = 5.0  # s, for the readers to acknowledge the final messages
 
 
 def effects_from(names, settings):
@@ -74,8 +73,7 @@ class PlantNode(common.EmlaNode):
         self.changes = changes_from(p.change_times, p.change_parameters, p.change_factors)
         params = ActuatorParameters(**{name: getattr(p, name) for name in common.ACTUATOR_FIELDS})
         self.supply = params.supply_voltage
-        self.plant = Plant(params,
-                           effects_from(p.effects, p.effect_parameters), self.changes,
+        self.plant = Plant(params, effects_from(p.effects, p.effect_parameters), self.changes,
                            initial_state=(0.0, p.initial_position, 0.0))
         self.parameters_step = common.to_ns(p.parameters_period)
         self.sample_period = p.sample_period
@@ -144,11 +142,7 @@ class PlantNode(common.EmlaNode):
         self.done.publish(common.time_msg(self.now))
         self.get_logger().info(f'done at t = {self.now * 1e-9:g} s; from the first command to the last frame: '
                                f'wall time {wall:.3f} s, realtime factor {self.now * 1e-9 / wall:.3f}')
-        deadline = time.monotonic() + ACK_TIMEOUT
-        for publisher in (*self.frames.values(), self.truth, self.done):
-            t0 = time.monotonic(); ok = publisher.wait_for_all_acked(Duration(seconds=max(0.0, deadline - time.monotonic())))
-            self.get_logger().info(f'ack {publisher.topic_name} {ok} {time.monotonic() - t0:.3f} s subs {publisher.get_subscription_count()}')
-        self.finished = True
+        self.finished = True  # common.run exits once the readers acknowledged
 
 
 def main(args=None):

@@ -30,7 +30,8 @@ class SensorNode(common.EmlaNode):
         self.outputs = common.frame_publishers(self, common.MEASURED_TOPICS)
         self.create_subscription(SampleFrame, common.PLANT_TOPICS['voltage'], self.outputs['voltage'].publish,
                                  common.FRAME_QOS, raw=True)  # passed on serialised
-        self.states = common.FrameSets(self, {name: common.PLANT_TOPICS[name] for name in ('current', 'position')}, self.measure)
+        self.states = common.FrameSets(self, {name: common.PLANT_TOPICS[name] for name in ('current', 'position')},
+                                       self.measure)
 
     def measure(self, stamp, sample_period, frames):
         current, position = self.sensor.measure(frames['current'], frames['position'])

@@ -1,0 +1,115 @@
+"""Samples into the grey-box regressions part by part: the rows of consecutive frames (RowStream, also behind
+online.py) and the identification of records too long to hold in memory (identify_chunks).
+
+identify_chunks takes a record as consecutive parts (Recordings: emla_sim.bag.iter_chunks from a bag, split()
+of one in memory) and keeps per regression an offline.WeightedAccumulator and a greybox.LagMoments of its rows,
+and their plain Gram matrix for the excitation check: memory of one part and a few small matrices, whatever the
+record's length. The result is greybox.identify's on the whole record to rounding (the same least-squares
+states and moments, summed in other groupings); the convergence trajectory is sampled at part ends.
+"""
+import itertools
+
+import numpy as np
+
+from emla_sim.recording import Recording
+
+from . import greybox, offline
+from .regressors import COLUMNS, HISTORY, SIGNALS, rows
+
+CHUNK_SAMPLES = 1 << 14  # samples per part: the rows of a part stay in cache
+
+
+class RowStream:
+    """Regression rows of `kinds` from consecutive frames of samples: each frame gets the last HISTORY samples
+    of the previous one in front, so the frames together give exactly the rows of the whole record."""
+
+    def __init__(self, kinds, sample_period):
+        self.kinds = tuple(kinds)
+        self.sample_period = float(sample_period)
+        self.signals = sorted({s for kind in self.kinds for s in SIGNALS[kind]})
+        self.reset()
+
+    def reset(self):
+        self._tail = {name: np.empty(0) for name in self.signals}
+        self.samples = 0
+
+    def rows(self, frame):
+        """{kind: (Phi, Y)} of the rows the frame {signal: 1-D array of equal lengths} completes."""
+        new = {name: np.asarray(frame[name], dtype=float).reshape(-1) for name in self.signals}
+        lengths = {len(values) for values in new.values()}
+        if len(lengths) != 1:
+            raise ValueError(f'frame signals have different lengths {sorted(lengths)}')
+        joined = {name: np.concatenate((self._tail[name], values)) for name, values in new.items()}
+        self._tail = {name: values[-HISTORY:].copy() for name, values in joined.items()}
+        self.samples += lengths.pop()
+        return {kind: rows(kind, joined, self.sample_period) for kind in self.kinds}
+
+
+class _Regression:
+    """What identify_chunks keeps of one regression's rows."""
+
+    def __init__(self, kind, forgetting, initial_covariance):
+        n = len(COLUMNS[kind])
+        self.least_squares = offline.WeightedAccumulator(n, forgetting=forgetting,
+                                                         initial_covariance=initial_covariance)
+        self.lags = greybox.LagMoments(n + 1, forgetting)
+        self.gram = np.zeros((n, n))
+
+    def add(self, phi, y):
+        z = np.column_stack((phi, y))
+        self.least_squares.add_stacked(z)
+        self.lags.update(z)
+        self.gram += phi.T @ phi
+
+    def statistics(self):
+        estimate = self.least_squares.estimate()
+        return greybox.Statistics(estimate.theta, estimate.covariance, self.lags.moments.copy(), self.lags.weight,
+                                  self.least_squares.forgetting)
+
+
+def identify_chunks(chunks, model=None, forgetting=1.0, *, initial_covariance=1e6, points=200, progress=None):
+    """greybox.identify of the record that `chunks` yields as consecutive Recordings, one held at a time.
+
+    The trajectory holds the estimates after at most `points` evenly spaced parts (the last: the final
+    estimate); progress: None or a function called with the samples done after each part.
+    """
+    chunks = iter(chunks)
+    first = next(chunks, None)
+    if first is None:
+        raise ValueError('identify_chunks needs at least one part of the record')
+    model, kinds, lam = greybox._setup(first, model, forgetting)
+    stream = RowStream(kinds, first.sample_period)
+    regressions = {kind: _Regression(kind, lam, initial_covariance) for kind in kinds}
+    snapshots, ends, stride, parts = [], [], 1, 0
+    for part in itertools.chain([first], chunks):
+        if part.sample_period != first.sample_period:
+            raise ValueError(f'parts with different sample periods ({first.sample_period}, {part.sample_period})')
+        greybox._check_finite(part, kinds, first=stream.samples)
+        for kind, (phi, y) in stream.rows(part.signals).items():
+            regressions[kind].add(phi, y)
+        if stream.samples > HISTORY:
+            parts += 1
+            if parts % stride == 0 and points > 1:  # every stride-th part, stride doubling to keep < points
+                snapshots.append({kind: r.statistics() for kind, r in regressions.items()})
+                ends.append(stream.samples - HISTORY)
+                if len(snapshots) >= points:
+                    snapshots, ends, stride = snapshots[1::2], ends[1::2], 2 * stride
+        if progress:
+            progress(stream.samples)
+    greybox._check_length(stream.samples, model, first.source)
+    for kind, regression in regressions.items():
+        greybox._check_excitation(regression.gram, kind, first.source or 'recording')
+    if ends and ends[-1] == stream.samples - HISTORY:
+        snapshots, ends = snapshots[:-1], ends[:-1]
+    snapshots.append({kind: r.statistics() for kind, r in regressions.items()})
+    ends.append(stream.samples - HISTORY)
+    return greybox._result(model, snapshots, ends, first, stream.samples, lam)
+
+
+def split(recording, chunk_samples=CHUNK_SAMPLES):
+    """Consecutive parts of an in-memory Recording, `chunk_samples` samples each (the last shorter; views)."""
+    ts = recording.sample_period
+    for start in range(0, max(len(recording), 1), chunk_samples):
+        yield Recording(ts, {name: values[start:start + chunk_samples] for name, values in recording.signals.items()},
+                        start_time=recording.start_time + start * ts, source=recording.source,
+                        metadata=recording.metadata)
