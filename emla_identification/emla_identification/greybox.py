@@ -18,6 +18,7 @@ import functools
 import itertools
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 
 from emla_sim.errors import InputError
@@ -41,33 +42,50 @@ _MAX_CONDITION = 1e12   # normalised information matrix above this: a parameter 
 class LagMoments:
     """The squared-weight moments the noise model needs, over a stream of rows z = [phi, y] in any frames:
     moments[d] = sum_k w_k^2 z_k z_(k-d)' for d = 0 .. HISTORY and weight = sum_k w_k^2, with the least-squares
-    weights w_k = lambda^(N-k) (a weighted estimate's error sum_k w_k phi_k e_k has w^2 in its covariance).
-
-    Per update one product z' z_lagged per lag, on views of the rows with the previous update's last HISTORY
-    in front (no lagged copy of the rows)."""
+    weights w_k = lambda^(N-k) (a weighted estimate's error sum_k w_k phi_k e_k has w^2 in its covariance)."""
 
     def __init__(self, width, forgetting=1.0):
         self.forgetting = forgetting
         self.moments = np.zeros((HISTORY + 1, width, width))
         self.weight = 0.0
-        self._tail = np.zeros((HISTORY, width))  # zero rows before the first contribute nothing
+        self._tail = np.zeros((width, HISTORY))  # columns; zero rows before the first contribute nothing
 
     def update(self, z):
         m = len(z)
         if m == 0:
             return
-        rows_ = np.concatenate((self._tail, z))
+        columns = np.empty((len(self._tail), HISTORY + m))  # the rows as columns, the previous HISTORY in front
+        columns[:, :HISTORY] = self._tail
+        columns[:, HISTORY:] = z.T
+        ahead = columns[:, HISTORY:]
         if self.forgetting == 1.0:
             self.weight += m
         else:
             squared = self.forgetting ** 2
             weights = squared ** np.arange(m - 1, -1, -1.0)
-            z = z * weights[:, None]
+            ahead = ahead * weights
             self.moments *= squared ** m
             self.weight = squared ** m * self.weight + weights.sum()
-        for d in range(HISTORY + 1):
-            self.moments[d] += z.T @ rows_[HISTORY - d:HISTORY - d + m]
-        self._tail = rows_[-HISTORY:].copy()  # not a view: that would keep all of rows_ alive
+        _lag_products(ahead, columns, self.moments)
+        self._tail = columns[:, m:].copy()
+
+
+@numba.njit(cache=True, fastmath={'reassoc', 'contract'})  # reassociated sums: vectorised dot products
+def _lag_products(ahead, columns, moments):
+    """moments[d, i, j] += sum_k ahead[i, k] columns[j, HISTORY + k - d], in tiles that stay in cache."""
+    lags, width = moments.shape[0], moments.shape[1]
+    m = ahead.shape[1]
+    for start in range(0, m, 512):
+        stop = min(start + 512, m)
+        for i in range(width):
+            a = ahead[i, start:stop]
+            for d in range(lags):
+                for j in range(width):
+                    b = columns[j, start + HISTORY - d:stop + HISTORY - d]
+                    total = 0.0
+                    for k in range(stop - start):
+                        total += a[k] * b[k]
+                    moments[d, i, j] += total
 
 
 @dataclass(frozen=True)
