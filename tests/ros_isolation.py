@@ -3,17 +3,28 @@ import os
 import signal
 import subprocess
 import sys
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from pathlib import Path
+
+from emla_control.launcher import reserved_domain
 
 REPO = Path(__file__).resolve().parents[1]
 VENV_BIN = Path(sys.executable).parent
+_held = ExitStack()      # the test run's domain lock, released when the process ends
+_domain = []
+
+
+def session_domain():
+    """A ROS_DOMAIN_ID locked for this test run (no launch or other test run on the host takes it)."""
+    if not _domain:
+        _domain.append(_held.enter_context(reserved_domain()))
+    return _domain[0]
 
 
 def isolated_env(**extra):
     """The environment for ROS processes of this test run: own domain, discovery on this host only."""
     env = dict(os.environ)
-    env['ROS_DOMAIN_ID'] = str(20 + os.getpid() % 80)
+    env['ROS_DOMAIN_ID'] = str(session_domain())
     env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
     env['PYTHONUNBUFFERED'] = '1'
     env.update({k: str(v) for k, v in extra.items()})

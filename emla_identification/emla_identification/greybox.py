@@ -57,28 +57,28 @@ class LagMoments:
         columns = np.empty((len(self._tail), HISTORY + m))  # the rows as columns, the previous HISTORY in front
         columns[:, :HISTORY] = self._tail
         columns[:, HISTORY:] = z.T
-        ahead = columns[:, HISTORY:]
         if self.forgetting == 1.0:
             self.weight += m
+            _lag_products(columns, HISTORY, columns, self.moments)
         else:
             squared = self.forgetting ** 2
             weights = squared ** np.arange(m - 1, -1, -1.0)
-            ahead = ahead * weights
             self.moments *= squared ** m
             self.weight = squared ** m * self.weight + weights.sum()
-        _lag_products(ahead, columns, self.moments)
+            _lag_products(columns[:, HISTORY:] * weights, 0, columns, self.moments)
         self._tail = columns[:, m:].copy()
 
 
 @numba.njit(cache=True, fastmath={'reassoc', 'contract'})  # reassociated sums: vectorised dot products
-def _lag_products(ahead, columns, moments):
-    """moments[d, i, j] += sum_k ahead[i, k] columns[j, HISTORY + k - d], in tiles that stay in cache."""
+def _lag_products(ahead, offset, columns, moments):
+    """moments[d, i, j] += sum_k ahead[i, offset + k] columns[j, HISTORY + k - d], in tiles that stay in cache;
+    C-contiguous arrays (row slices are then contiguous: vectorised)."""
     lags, width = moments.shape[0], moments.shape[1]
-    m = ahead.shape[1]
+    m = columns.shape[1] - HISTORY
     for start in range(0, m, 512):
         stop = min(start + 512, m)
         for i in range(width):
-            a = ahead[i, start:stop]
+            a = ahead[i, offset + start:offset + stop]
             for d in range(lags):
                 for j in range(width):
                     b = columns[j, start + HISTORY - d:stop + HISTORY - d]

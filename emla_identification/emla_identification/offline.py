@@ -148,8 +148,8 @@ def _stacked_states(stacked, N, lam, S0, every):
     while start < N:
         stop = min(start + rows, N, (start // every + 1) * every if every > rows else N)
         Z = stacked(start, stop)
-        finite = np.isfinite(Z).all(axis=1)
-        if not finite.all():
+        if not np.isfinite(Z).all():  # (the row-wise test only then: all(axis=1) over n + 1 columns is slow)
+            finite = np.isfinite(Z).all(axis=1)
             raise ValueError(f'non-finite regressor or output in row {start + int(np.argmin(finite))}')
         C, group_ends = _group_sums(Z, group, weights)
         decay = (lam ** group_ends)[:, None, None]  # from the chunk start to each group end

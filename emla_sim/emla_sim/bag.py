@@ -4,6 +4,7 @@ The writer splits a bag into several MCAP files. Each split is finished (summary
 before metadata.yaml is rewritten atomically to list it, so a recorder killed at any moment leaves a bag
 that rosbags, mcap-ros2-support and `emla` read up to the last finished split.
 """
+import collections
 import copy
 import os
 import struct
@@ -11,6 +12,7 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numba
 import numpy as np
 import yaml
 from mcap.exceptions import McapError
@@ -343,3 +345,264 @@ def _assemble(frames, path, custom):
         signals[name] = data[offset:offset + n]
     return Recording(sample_period=period, signals=signals, start_time=first * 1e-9, source=str(path),
                      metadata=custom)
+
+
+# ---- reading a record in parts: iter_chunks ----
+
+_MCAP_ERRORS = (McapError, OSError, ValueError, KeyError, EOFError, IndexError, struct.error)
+_MCAP_MESSAGE = 0x05  # the opcode of an MCAP Message record
+
+
+def iter_chunks(path, signals=None, chunk_samples=1 << 15):
+    """read_bag(path).recording as consecutive Recordings of `chunk_samples` samples (the last one shorter),
+    decoded and aligned as the MCAP chunks are read: memory holds a part, not the record.
+
+    signals: the names the parts carry (default: all); all of the bag's signals are aligned, as read_bag does.
+    Each signal's frames must be stored in time order (the suite stores frames at their stamps), where read_bag
+    also accepts them shuffled. A file without a summary and chunk index (e.g. a bare .mcap whose writer was
+    killed) is read whole by read_bag and comes as one part.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise InputError(f'{path}: no such file or directory')
+    files, custom = _mcap_files(path)
+    layouts = _chunk_layouts(files)
+    if layouts is None:
+        recording = read_bag(path).recording
+        recording.signals = {k: v for k, v in recording.signals.items() if signals is None or k in signals}
+        yield recording
+        return
+    names = sorted({topic[len(NAMESPACE):] for _, channels, _ in layouts for topic in channels.values()})
+    aligner = _Aligner(path, names, names if signals is None else [n for n in names if n in signals],
+                       chunk_samples, custom)
+    for file, channels, chunk_indexes in layouts:
+        slot_of_channel = np.full(max(channels, default=0) + 1, -1, dtype=np.int64)
+        for channel, topic in channels.items():
+            slot_of_channel[channel] = names.index(topic[len(NAMESPACE):])
+        for frames in _decoded_chunks(file, chunk_indexes, slot_of_channel, len(names)):
+            yield from aligner.add(*frames)
+    yield from aligner.finish()
+
+
+class _Aligner:
+    """Frames of each signal, checked for gaps and overlaps as read_bag checks them, cut to the time span all
+    signals share (read_bag's first and last) and handed out in parts as soon as every signal has them."""
+
+    def __init__(self, path, names, wanted, chunk_samples, metadata):
+        if isinstance(chunk_samples, bool) or not isinstance(chunk_samples, int) or chunk_samples < 1:
+            raise ValueError(f'chunk_samples must be a positive integer, got {chunk_samples!r}')
+        self.path, self.names, self.chunk_samples, self.metadata = path, names, chunk_samples, metadata
+        self.period = None
+        self.start, self.end = {}, {}                   # ns: first stamp, stamp the next frame must have
+        self.received = dict.fromkeys(names, 0)          # samples
+        self.queues = {name: _Queue() for name in wanted}
+        self.first = None                                # the shared start, once every signal has begun
+        self.offsets = {}                                # samples of each signal before it
+        self.emitted = 0
+
+    def add(self, slot_of, stamps, periods, lengths, values, starts):
+        """The parts complete after one decoded MCAP chunk."""
+        for slot, name in enumerate(self.names):
+            mine = slot_of == slot
+            if mine.any():
+                self._frames(name, stamps[mine], periods[mine], lengths[mine])
+                if name in self.queues:
+                    self.queues[name].push(values[starts[slot]:starts[slot + 1]])
+        return self._parts(final=False)
+
+    def finish(self):
+        if len(self.start) < len(self.names):  # never, as the summaries count a message on every signal
+            raise InputError(f'{self.path}: no frames of {", ".join(n for n in self.names if n not in self.start)}')
+        return self._parts(final=True)
+
+    def _frames(self, name, stamps, periods, lengths):
+        if self.period is None:
+            self.period = float(periods[0])
+            if not self.period > 0:
+                raise InputError(f'{self.path}: sample period {self.period} is not positive')
+        if np.any(periods != self.period):
+            different = sorted({self.period, *periods.tolist()})
+            raise InputError(f'{self.path}: frames have different sample periods {different}')
+        durations = np.rint(lengths * self.period * 1e9).astype(np.int64)  # round(len(data) * period * 1e9)
+        expected = np.concatenate(([self.end.get(name, stamps[0])], stamps[:-1] + durations[:-1]))
+        bad = np.abs(stamps - expected) > 0.5 * self.period * 1e9
+        if bad.any():
+            stamp = stamps[np.argmax(bad)]
+            raise InputError(f'{self.path}: /emla/{name} has a gap or overlap at t = {stamp * 1e-9:.6f} s')
+        self.start.setdefault(name, int(stamps[0]))
+        self.end[name] = int(stamps[-1] + durations[-1])
+        self.received[name] += int(lengths.sum())
+
+    def _parts(self, final):
+        if self.first is None:
+            if len(self.start) < len(self.names):
+                return
+            self.first = max(self.start.values())
+            self.offsets = {n: round((self.first - self.start[n]) * 1e-9 / self.period) for n in self.names}
+            for name, queue in self.queues.items():
+                queue.drop(self.offsets[name])
+        last = min(self.end.values())
+        if final and last <= self.first:
+            raise InputError(f'{self.path}: the signal topics share no time span')
+        total = max(0, round((last - self.first) * 1e-9 / self.period))  # read_bag's n, or a lower bound of it
+        if not final:
+            total = min([total] + [self.received[n] - self.offsets[n] for n in self.names])
+        while total - self.emitted >= self.chunk_samples:
+            yield self._part(self.chunk_samples)
+        if final and (total > self.emitted or not self.emitted):  # the rest; an empty record as one empty part
+            yield self._part(total - self.emitted)
+
+    def _part(self, size):
+        part = Recording(sample_period=self.period, signals={name: q.take(size) for name, q in self.queues.items()},
+                         start_time=self.first * 1e-9 + self.emitted * self.period, source=str(self.path),
+                         metadata=self.metadata)
+        self.emitted += size
+        return part
+
+
+class _Queue:
+    """Samples of one signal waiting to be handed out: arrays in arrival order."""
+
+    def __init__(self):
+        self._arrays, self._skip = collections.deque(), 0
+
+    def push(self, values):
+        self._arrays.append(values)
+
+    def drop(self, n):
+        self._skip += n
+
+    def take(self, n):
+        parts = []
+        while n > 0 and self._arrays:
+            head = self._arrays[0]
+            if self._skip >= len(head):
+                self._skip -= len(head)
+                self._arrays.popleft()
+                continue
+            piece = head[self._skip:self._skip + n]
+            parts.append(piece)
+            n -= len(piece)
+            self._skip += len(piece)
+        return parts[0] if len(parts) == 1 else np.concatenate(parts) if parts else np.empty(0)
+
+
+def _chunk_layouts(files):
+    """[(file, {channel id: signal topic}, chunk indexes)] from the MCAP summaries; None if a file has none,
+    or has messages outside chunks or on signal channels that are not CDR."""
+    layouts = []
+    for file in files:
+        try:
+            with file.open('rb') as f:
+                summary = make_reader(f).get_summary()
+        except _MCAP_ERRORS:
+            return None
+        statistics = summary and summary.statistics
+        if statistics is None or len(summary.chunk_indexes) != statistics.chunk_count \
+                or (statistics.message_count and not statistics.chunk_count):
+            return None
+        channels = {}
+        for channel in summary.channels.values():
+            schema = summary.schemas.get(channel.schema_id)
+            if schema is not None and schema.name == SAMPLE_FRAME and channel.topic.startswith(NAMESPACE) \
+                    and statistics.channel_message_counts.get(channel.id, 0):
+                if channel.message_encoding != 'cdr':
+                    return None
+                channels[channel.id] = channel.topic
+        layouts.append((file, channels, sorted(summary.chunk_indexes, key=lambda c: c.chunk_start_offset)))
+    return layouts
+
+
+def _decoded_chunks(file, chunk_indexes, slot_of_channel, slots):
+    """_decode_frames of each chunk of an MCAP file, in file order."""
+    from mcap.data_stream import ReadDataStream
+    from mcap.records import Chunk
+    from mcap.stream_reader import get_chunk_data_stream
+    try:
+        with file.open('rb') as f:
+            for index in chunk_indexes:
+                f.seek(index.chunk_start_offset + 1 + 8)  # past the record's opcode and length
+                stream, size = get_chunk_data_stream(Chunk.read(ReadDataStream(f)))
+                *frames, bad = _decode_frames(np.frombuffer(stream.read(size), np.uint8), slot_of_channel, slots)
+                if bad >= 0:
+                    raise ValueError(f'malformed record or SampleFrame at byte {bad} of the chunk at '
+                                     f'{index.chunk_start_offset}')
+                yield frames
+    except _MCAP_ERRORS as exc:
+        raise InputError(f'{file}: unreadable MCAP: {" ".join(str(exc).split()) or type(exc).__name__}') from None
+
+
+@numba.njit(cache=True)
+def _little_endian(buf, at, size):
+    value = 0
+    for b in range(size - 1, -1, -1):
+        value = (value << 8) | buf[at + b]
+    return value
+
+
+@numba.njit(cache=True)
+def _frame_layout(buf, body, end):
+    """(stamp ns, sample-period bits, samples, first data byte) of the little-endian CDR SampleFrame in the
+    Message record body [body, end); samples -1 if it is not one."""
+    cdr = body + 22  # channel id, sequence, log and publish time come first
+    if cdr + 16 > end or buf[cdr] != 0 or buf[cdr + 1] != 1:
+        return 0, 0, -1, 0
+    sec = _little_endian(buf, cdr + 4, 4)
+    stamp = (sec - (sec >> 31 << 32)) * 1_000_000_000 + _little_endian(buf, cdr + 8, 4)
+    period = (12 + _little_endian(buf, cdr + 12, 4) + 7) // 8 * 8  # after the frame_id; 8-aligned in the body
+    if cdr + 4 + period + 12 > end:
+        return 0, 0, -1, 0
+    samples = _little_endian(buf, cdr + 4 + period + 8, 4)
+    data = cdr + 4 + (period + 12 + 7) // 8 * 8
+    if data + 8 * samples > end:
+        return 0, 0, -1, 0
+    return stamp, _little_endian(buf, cdr + 4 + period, 8), samples, data
+
+
+def _decode_frames(buf, slot_of_channel, slots):
+    """The SampleFrames on channels with a slot (>= 0) among the records of an uncompressed MCAP chunk.
+
+    Returns per frame (in record order) its slot, stamp (ns), sample period and length; the values of each slot
+    concatenated in record order, slot s's from starts[s] to starts[s + 1]; and the byte offset of the first
+    malformed record or frame (-1: none)."""
+    counts = np.zeros(slots, dtype=np.int64)
+    none = np.empty(0, dtype=np.int64)
+    frames, bad = _scan(buf, slot_of_channel, counts, none, none, none, none, none, np.empty(0, dtype=np.uint8))
+    starts = np.concatenate(([0], np.cumsum(counts)))
+    values = np.empty(starts[-1])
+    slot_of, stamps, bits, lengths = (np.empty(frames, dtype=np.int64) for _ in range(4))
+    if bad < 0:
+        _scan(buf, slot_of_channel, None, starts[:-1].copy(), slot_of, stamps, bits, lengths, values.view(np.uint8))
+    return slot_of, stamps, bits.view(np.float64), lengths, values, starts, bad
+
+
+@numba.njit(cache=True)
+def _scan(buf, slot_of_channel, counts, filled, slot_of, stamps, bits, lengths, value_bytes):
+    """Walk the records: with counts, add up each slot's samples; else write the frames (filled: where each slot's
+    next values go). Returns (frames, byte offset of the first malformed record or frame, or -1)."""
+    frames = 0
+    pos = 0
+    while pos < buf.size:
+        if pos + 9 > buf.size:
+            return frames, pos
+        length = _little_endian(buf, pos + 1, 8)
+        body, end = pos + 9, pos + 9 + length
+        if length < 0 or end > buf.size:
+            return frames, pos
+        if buf[pos] == _MCAP_MESSAGE and end >= body + 2:
+            channel = _little_endian(buf, body, 2)
+            slot = slot_of_channel[channel] if channel < slot_of_channel.size else -1
+            if slot >= 0:
+                stamp, period, samples, data = _frame_layout(buf, body, end)
+                if samples < 0:
+                    return frames, pos
+                if counts is not None:
+                    counts[slot] += samples
+                else:
+                    slot_of[frames], stamps[frames], bits[frames], lengths[frames] = slot, stamp, period, samples
+                    at = 8 * filled[slot]
+                    value_bytes[at:at + 8 * samples] = buf[data:data + 8 * samples]
+                    filled[slot] += samples
+                frames += 1
+        pos = end
+    return frames, -1

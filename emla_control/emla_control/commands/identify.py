@@ -8,9 +8,14 @@ data, mechanical for force/position data.
 ARX: y(t) + a1 y(t-1) + ... = b1 u(t-nk) + ... by RLS from theta = 0, P = 1e6 I. Default input voltage,
 output current, orders 2 2 1 (the exact structure of the coil current's response to the voltage).
 
+Records of LONG_SAMPLES samples or more are identified part by part (emla_identification.streaming): a bag is
+then read part by part too and never held whole (a CSV file is; reading it in parts is not worth it), and the
+estimates equal the whole-record ones to rounding.
+
 The JSON goes to stdout unless --json is given. A bag written by the suite may carry the true parameters
 (custom metadata true_resistance, ...); --plot then draws them next to the estimates.
 """
+import itertools
 import json
 import math
 import os
@@ -26,6 +31,7 @@ MODELS = ('electrical', 'mechanical', 'full', 'arx')
 DEFAULT_ORDERS = (2, 2, 1)
 ARX_DEFAULT = ('voltage', 'current')
 PROGRESS_MIN_SAMPLES = 200_000  # smaller inputs finish too fast for a progress bar
+LONG_SAMPLES = 1 << 20          # from here on a record is identified part by part (bounded memory)
 
 
 def add_arguments(parser):
@@ -45,12 +51,11 @@ def add_arguments(parser):
 
 def run(args):
     model, orders, forgetting = _options(args)
-    from emla_sim.recording import load
-    recording = load(args.data)
     if model == 'arx':
-        result, plot = _arx(recording, orders, forgetting, args)
+        from emla_sim.recording import load
+        result, plot = _arx(load(args.data), orders, forgetting, args)
     else:
-        result, plot = _greybox(recording, model, forgetting)
+        result, plot = _greybox(args.data, model, forgetting, args.plot)
     text = json.dumps(_finite(result), indent=2) + '\n'
     staged = []  # (temporary, final): renamed only once every output is complete
     try:
@@ -101,13 +106,22 @@ def _options(args):
     return model, orders, forgetting
 
 
-def _greybox(recording, model, forgetting):
+def _greybox(data, model, forgetting, plot):
     from tqdm import tqdm
 
     from emla_identification.greybox import identify
-    with tqdm(total=100, unit='%', desc='identify', file=sys.stderr, leave=False,
-              disable=not sys.stderr.isatty() or len(recording) < PROGRESS_MIN_SAMPLES) as bar:
-        result = identify(recording, model, forgetting, progress=lambda done: bar.update(round(100 * done) - bar.n))
+    from emla_identification.streaming import identify_chunks
+    recording, parts = _record(data)
+    if parts is None:
+        with tqdm(total=100, unit='%', desc='identify', file=sys.stderr, leave=False,
+                  disable=not sys.stderr.isatty() or len(recording) < PROGRESS_MIN_SAMPLES) as bar:
+            result = identify(recording, model, forgetting,
+                              progress=lambda done: bar.update(round(100 * done) - bar.n))
+    else:
+        with tqdm(unit=' samples', unit_scale=True, desc='identify', file=sys.stderr, leave=False,
+                  disable=not sys.stderr.isatty()) as bar:
+            result = identify_chunks(parts, model, forgetting, points=200 if plot else 1,
+                                     progress=lambda samples: bar.update(samples - bar.n))
     truth = {}
     for name in result.parameters:
         try:
@@ -117,6 +131,28 @@ def _greybox(recording, model, forgetting):
     trajectory = result.trajectory
     title = f'{Path(recording.source).name}: {result.model} model'
     return result.to_dict(), (trajectory.time, trajectory.parameters, trajectory.std, truth, title)
+
+
+def _record(data):
+    """(the Recording, None) when it is shorter than LONG_SAMPLES, else (it or its first part, its consecutive
+    parts)."""
+    from emla_identification.streaming import split
+    from emla_sim.bag import iter_chunks
+    from emla_sim.recording import Recording, load
+    path = Path(data)
+    if not (path.is_dir() or path.suffix == '.mcap'):  # CSV, read whole (as load() tells them apart)
+        recording = load(path)
+        return recording, None if len(recording) < LONG_SAMPLES else split(recording)
+    parts = iter_chunks(path)
+    head, samples = [], 0
+    for part in parts:
+        head.append(part)
+        samples += len(part)
+        if samples >= LONG_SAMPLES:
+            return head[0], itertools.chain(head, parts)
+    first = head[0]  # iter_chunks yields at least one part
+    whole = {name: np.concatenate([part.signals[name] for part in head]) for name in first.signals}
+    return Recording(first.sample_period, whole, first.start_time, first.source, first.metadata), None
 
 
 def _arx(recording, orders, forgetting, args):
