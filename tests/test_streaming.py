@@ -88,9 +88,9 @@ def test_row_stream_gives_the_rows_of_the_whole_record():
         for kind, (phi, y) in stream.rows(part.signals).items():
             got[kind].append(np.column_stack((phi, y)))
     assert stream.samples == len(recording)
-    for kind, pieces_ in got.items():
-        np.testing.assert_array_equal(np.concatenate(pieces_), np.column_stack(rows(kind, recording.signals,
-                                                                                      recording.sample_period)))
+    for kind, blocks in got.items():
+        whole = np.column_stack(rows(kind, recording.signals, recording.sample_period))
+        np.testing.assert_array_equal(np.concatenate(blocks), whole)
 
 
 def assert_same_result(streamed, whole):
@@ -196,9 +196,9 @@ def test_bag_parts_report_gaps_as_read_bag_does(tmp_path):
             writer.write_message('/emla/current', k * 10**6, sample_frame(k * 10**6, 1e-4, np.zeros(10)))
     with pytest.raises(InputError) as whole:
         read_bag(bag)
-    with pytest.raises(InputError) as parts_:
+    with pytest.raises(InputError) as streamed:
         list(iter_chunks(bag))
-    assert str(parts_.value) == str(whole.value) and 'gap or overlap at t = 0.003000 s' in str(whole.value)
+    assert str(streamed.value) == str(whole.value) and 'gap or overlap at t = 0.003000 s' in str(whole.value)
 
 
 def test_a_bare_mcap_without_chunks_is_read_whole(tmp_path):

@@ -48,42 +48,52 @@ class LagMoments:
         self.forgetting = forgetting
         self.moments = np.zeros((HISTORY + 1, width, width))
         self.weight = 0.0
-        self._tail = np.zeros((width, HISTORY))  # columns; zero rows before the first contribute nothing
+        self._tail = np.zeros((HISTORY, width))  # zero rows before the first contribute nothing
 
     def update(self, z):
         m = len(z)
         if m == 0:
             return
-        columns = np.empty((len(self._tail), HISTORY + m))  # the rows as columns, the previous HISTORY in front
-        columns[:, :HISTORY] = self._tail
-        columns[:, HISTORY:] = z.T
+        z = np.asarray(z, dtype=float)
         if self.forgetting == 1.0:
+            weights = np.empty(0)
             self.weight += m
-            _lag_products(columns, HISTORY, columns, self.moments)
         else:
             squared = self.forgetting ** 2
             weights = squared ** np.arange(m - 1, -1, -1.0)
             self.moments *= squared ** m
             self.weight = squared ** m * self.weight + weights.sum()
-            _lag_products(columns[:, HISTORY:] * weights, 0, columns, self.moments)
-        self._tail = columns[:, m:].copy()
+        _lag_products(self._tail, z, weights, self.moments)
+        self._tail = np.concatenate((self._tail, z[-HISTORY:]))[-HISTORY:]
+
+
+_TILE = 512  # rows per tile of _lag_products: a tile's columns stay in the first-level cache
 
 
 @numba.njit(cache=True, fastmath={'reassoc', 'contract'})  # reassociated sums: vectorised dot products
-def _lag_products(ahead, offset, columns, moments):
-    """moments[d, i, j] += sum_k ahead[i, offset + k] columns[j, HISTORY + k - d], in tiles that stay in cache;
-    C-contiguous arrays (row slices are then contiguous: vectorised)."""
-    lags, width = moments.shape[0], moments.shape[1]
-    m = columns.shape[1] - HISTORY
-    for start in range(0, m, 512):
-        stop = min(start + 512, m)
+def _lag_products(tail, z, weights, moments):
+    """moments[d] += sum_k weights_k z_k z_(k-d)' over the rows z_k of z, tail holding the HISTORY rows before
+    (weights empty: all ones). Tile by tile, the rows are copied into columns: contiguous dot products."""
+    m, width = z.shape
+    ahead = np.empty((width, _TILE))
+    behind = np.empty((width, _TILE + HISTORY))  # the tile's rows with the HISTORY before them
+    for start in range(0, m, _TILE):
+        n = min(_TILE, m - start)
+        for k in range(n + HISTORY):
+            row = z[start - HISTORY + k] if start - HISTORY + k >= 0 else tail[k]
+            for i in range(width):
+                behind[i, k] = row[i]
+        if weights.size:
+            for i in range(width):
+                for k in range(n):
+                    ahead[i, k] = weights[start + k] * behind[i, HISTORY + k]
         for i in range(width):
-            a = ahead[i, offset + start:offset + stop]
-            for d in range(lags):
+            a = ahead[i, :n] if weights.size else behind[i, HISTORY:HISTORY + n]
+            for d in range(HISTORY + 1):
                 for j in range(width):
-                    b = columns[j, start + HISTORY - d:stop + HISTORY - d]
+                    b = behind[j, HISTORY - d:HISTORY - d + n]
                     total = 0.0
-                    for k in range(stop - start):
+                    for k in range(n):
                         total += a[k] * b[k]
                     moments[d, i, j] += total
 
@@ -173,7 +183,7 @@ def physical(model, statistics, sample_period):
 
 
 def physical_values(model, statistics, sample_period):
-    """(names, values) as physical() gives them, without the noise model and uncertainties (most of its cost)."""
+    """(names, values) as physical() gives them, without the noise model and the uncertainties."""
     with np.errstate(all='ignore'):
         vector = np.concatenate([theta for _, theta in _restricted(statistics).values()])
         names, function = _parameter_function(statistics)

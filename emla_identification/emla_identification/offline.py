@@ -78,7 +78,7 @@ class WeightedAccumulator:
     def add(self, Phi, Y):
         """Rows Phi (m x n) and outputs Y (m,)."""
         Phi, Y = check_regression(Phi, Y, self.n)
-        self._add(len(Y), lambda start, stop: np.column_stack((Phi[start:stop], Y[start:stop])))
+        self._add(len(Y), _stacker(Phi, Y))
 
     def add_stacked(self, Z):
         """Rows z = [phi, y] as one (m, n + 1) array (no copy of the rows is made)."""
@@ -125,6 +125,11 @@ def _initial_state(n, initial_covariance, initial_theta):
 
 def _states(Phi, Y, lam, S0, every):
     """S after rows [0, k) for k = every, 2 every, ..., N."""
+    return _stacked_states(_stacker(Phi, Y), len(Y), lam, S0, every)
+
+
+def _stacker(Phi, Y):
+    """stacked(start, stop): rows [start, stop) of Phi and Y as one array of z = [phi, y]."""
     n = Phi.shape[1]
 
     def stacked(start, stop):
@@ -132,7 +137,7 @@ def _states(Phi, Y, lam, S0, every):
         Z[:, :n] = Phi[start:stop]
         Z[:, n] = Y[start:stop]
         return Z
-    return _stacked_states(stacked, len(Y), lam, S0, every)
+    return stacked
 
 
 def _stacked_states(stacked, N, lam, S0, every):

@@ -22,8 +22,8 @@ class OnlineIdentifier:
     signals: the signals the frames carry, by default the coil signals (voltage, current, position); give
     ('force', 'position') for mechanical-only data. Memory: a forgetting factor or a memory time constant
     (s); neither means no forgetting. update() costs about 1.5 us per sample (full model, frames of 100);
-    estimate() about 0.5-2 ms (its noise model), so call it at the rate the uncertainties are used; values()
-    gives the parameters alone for a small fraction of that.
+    estimate() about 0.5-2 ms, so call it at the rate the uncertainties are used; values() gives the parameters
+    alone, without the noise model, for about half of that (what remains is tying h, greybox._restricted).
     """
 
     def __init__(self, sample_period, model='full', *, forgetting=None, memory_time=None,

@@ -16,7 +16,7 @@ from emla_sim.recording import Recording
 from . import greybox, offline
 from .regressors import COLUMNS, HISTORY, SIGNALS, rows
 
-CHUNK_SAMPLES = 1 << 14  # samples per part: the rows of a part stay in cache
+CHUNK_SAMPLES = 1 << 14  # samples whose rows are formed at a time: they stay in cache
 
 
 class RowStream:
@@ -53,13 +53,18 @@ class _Regression:
         self.least_squares = offline.WeightedAccumulator(n, forgetting=forgetting,
                                                          initial_covariance=initial_covariance)
         self.lags = greybox.LagMoments(n + 1, forgetting)
-        self.gram = np.zeros((n, n))
+        self._gram = None if forgetting == 1.0 else np.zeros((n, n))  # else the lag-0 moment is that sum
 
     def add(self, phi, y):
         z = np.column_stack((phi, y))
         self.least_squares.add_stacked(z)
         self.lags.update(z)
-        self.gram += phi.T @ phi
+        if self._gram is not None:
+            self._gram += phi.T @ phi
+
+    def gram(self):
+        """sum of phi phi' over the rows, unweighted (for the excitation check)."""
+        return self.lags.moments[0, :-1, :-1] if self._gram is None else self._gram
 
     def statistics(self):
         estimate = self.least_squares.estimate()
@@ -85,8 +90,10 @@ def identify_chunks(chunks, model=None, forgetting=1.0, *, initial_covariance=1e
         if part.sample_period != first.sample_period:
             raise ValueError(f'parts with different sample periods ({first.sample_period}, {part.sample_period})')
         greybox._check_finite(part, kinds, first=stream.samples)
-        for kind, (phi, y) in stream.rows(part.signals).items():
-            regressions[kind].add(phi, y)
+        for start in range(0, len(part), CHUNK_SAMPLES):  # whatever the parts' size, rows in cache-sized slices
+            piece = {name: part.signals[name][start:start + CHUNK_SAMPLES] for name in stream.signals}
+            for kind, (phi, y) in stream.rows(piece).items():
+                regressions[kind].add(phi, y)
         if stream.samples > HISTORY:
             parts += 1
             if parts % stride == 0 and points > 1:  # every stride-th part, stride doubling to keep < points
@@ -98,7 +105,7 @@ def identify_chunks(chunks, model=None, forgetting=1.0, *, initial_covariance=1e
             progress(stream.samples)
     greybox._check_length(stream.samples, model, first.source)
     for kind, regression in regressions.items():
-        greybox._check_excitation(regression.gram, kind, first.source or 'recording')
+        greybox._check_excitation(regression.gram(), kind, first.source or 'recording')
     if ends and ends[-1] == stream.samples - HISTORY:
         snapshots, ends = snapshots[:-1], ends[:-1]
     snapshots.append({kind: r.statistics() for kind, r in regressions.items()})

@@ -3,6 +3,10 @@
 The writer splits a bag into several MCAP files. Each split is finished (summary and footer written)
 before metadata.yaml is rewritten atomically to list it, so a recorder killed at any moment leaves a bag
 that rosbags, mcap-ros2-support and `emla` read up to the last finished split.
+
+read_bag assembles whole signals; iter_chunks yields the same signals in parts without holding the record,
+decoding the SampleFrames of each MCAP chunk in one compiled pass (the per-message deserialisation read_bag
+uses would take longer than the identification of the samples).
 """
 import collections
 import copy
@@ -273,6 +277,9 @@ def _mcap_files(path):
     return [path / p for p in info.get('relative_file_paths', [])], dict(info.get('custom_data') or {})
 
 
+_MCAP_ERRORS = (McapError, OSError, ValueError, KeyError, EOFError, IndexError, struct.error)  # unreadable files
+
+
 def iter_messages(path, topics=None):
     """(topic, msgtype, stamp_ns, message) of a bag directory or .mcap file, file by file."""
     path = Path(path)
@@ -286,7 +293,7 @@ def iter_messages(path, topics=None):
                 for schema, channel, message in make_reader(f).iter_messages(topics=topics):
                     yield channel.topic, schema.name, message.log_time, store.deserialize_cdr(message.data,
                                                                                                schema.name)
-        except (McapError, OSError, ValueError, KeyError, EOFError, IndexError, struct.error) as exc:
+        except _MCAP_ERRORS as exc:
             raise InputError(f'{file}: unreadable MCAP: {" ".join(str(exc).split()) or type(exc).__name__}') from None
 
 
@@ -349,11 +356,11 @@ def _assemble(frames, path, custom):
 
 # ---- reading a record in parts: iter_chunks ----
 
-_MCAP_ERRORS = (McapError, OSError, ValueError, KeyError, EOFError, IndexError, struct.error)
-_MCAP_MESSAGE = 0x05  # the opcode of an MCAP Message record
+_MCAP_MESSAGE = 0x05      # the opcode of an MCAP Message record
+_DECODE_BYTES = 1 << 20   # uncompressed chunk data decoded at a time
 
 
-def iter_chunks(path, signals=None, chunk_samples=1 << 15):
+def iter_chunks(path, signals=None, chunk_samples=1 << 14):
     """read_bag(path).recording as consecutive Recordings of `chunk_samples` samples (the last one shorter),
     decoded and aligned as the MCAP chunks are read: memory holds a part, not the record.
 
@@ -362,24 +369,26 @@ def iter_chunks(path, signals=None, chunk_samples=1 << 15):
     also accepts them shuffled. A file without a summary and chunk index (e.g. a bare .mcap whose writer was
     killed) is read whole by read_bag and comes as one part.
     """
+    if isinstance(chunk_samples, bool) or not isinstance(chunk_samples, int) or chunk_samples < 1:
+        raise ValueError(f'chunk_samples must be a positive integer, got {chunk_samples!r}')
     path = Path(path)
     if not path.exists():
         raise InputError(f'{path}: no such file or directory')
     files, custom = _mcap_files(path)
-    layouts = _chunk_layouts(files)
+    layouts = _signal_channels(files)
     if layouts is None:
         recording = read_bag(path).recording
         recording.signals = {k: v for k, v in recording.signals.items() if signals is None or k in signals}
         yield recording
         return
-    names = sorted({topic[len(NAMESPACE):] for _, channels, _ in layouts for topic in channels.values()})
+    names = sorted({topic[len(NAMESPACE):] for _, channels in layouts for topic in channels.values()})
     aligner = _Aligner(path, names, names if signals is None else [n for n in names if n in signals],
                        chunk_samples, custom)
-    for file, channels, chunk_indexes in layouts:
+    for file, channels in layouts:
         slot_of_channel = np.full(max(channels, default=0) + 1, -1, dtype=np.int64)
         for channel, topic in channels.items():
             slot_of_channel[channel] = names.index(topic[len(NAMESPACE):])
-        for frames in _decoded_chunks(file, chunk_indexes, slot_of_channel, len(names)):
+        for frames in _decoded_chunks(file, slot_of_channel, len(names)):
             yield from aligner.add(*frames)
     yield from aligner.finish()
 
@@ -389,8 +398,6 @@ class _Aligner:
     signals share (read_bag's first and last) and handed out in parts as soon as every signal has them."""
 
     def __init__(self, path, names, wanted, chunk_samples, metadata):
-        if isinstance(chunk_samples, bool) or not isinstance(chunk_samples, int) or chunk_samples < 1:
-            raise ValueError(f'chunk_samples must be a positive integer, got {chunk_samples!r}')
         self.path, self.names, self.chunk_samples, self.metadata = path, names, chunk_samples, metadata
         self.period = None
         self.start, self.end = {}, {}                   # ns: first stamp, stamp the next frame must have
@@ -411,7 +418,7 @@ class _Aligner:
         return self._parts(final=False)
 
     def finish(self):
-        if len(self.start) < len(self.names):  # never, as the summaries count a message on every signal
+        if len(self.start) < len(self.names):  # summaries that count frames the chunks do not hold
             raise InputError(f'{self.path}: no frames of {", ".join(n for n in self.names if n not in self.start)}')
         return self._parts(final=True)
 
@@ -487,16 +494,12 @@ class _Queue:
         return parts[0] if len(parts) == 1 else np.concatenate(parts) if parts else np.empty(0)
 
 
-def _chunk_layouts(files):
-    """[(file, {channel id: signal topic}, chunk indexes)] from the MCAP summaries; None if a file has none,
-    or has messages outside chunks or on signal channels that are not CDR."""
+def _signal_channels(files):
+    """[(file, {channel id: signal topic})] from the MCAP summaries; None if a file has none, or has messages
+    outside chunks or on signal channels that are not CDR."""
     layouts = []
     for file in files:
-        try:
-            with file.open('rb') as f:
-                summary = make_reader(f).get_summary()
-        except _MCAP_ERRORS:
-            return None
+        summary = _summary(file)
         statistics = summary and summary.statistics
         if statistics is None or len(summary.chunk_indexes) != statistics.chunk_count \
                 or (statistics.message_count and not statistics.chunk_count):
@@ -509,25 +512,45 @@ def _chunk_layouts(files):
                 if channel.message_encoding != 'cdr':
                     return None
                 channels[channel.id] = channel.topic
-        layouts.append((file, channels, sorted(summary.chunk_indexes, key=lambda c: c.chunk_start_offset)))
+        layouts.append((file, channels))
     return layouts
 
 
-def _decoded_chunks(file, chunk_indexes, slot_of_channel, slots):
-    """_decode_frames of each chunk of an MCAP file, in file order."""
+def _summary(file):
+    """The summary section of an MCAP file, None if it has none or cannot be read."""
+    try:
+        with file.open('rb') as f:
+            return make_reader(f).get_summary()
+    except _MCAP_ERRORS:
+        return None
+
+
+def _decoded_chunks(file, slot_of_channel, slots):
+    """_decode_frames of the chunks of an MCAP file, in file order, a few together (the records of consecutive
+    chunks, uncompressed, are one valid sequence of records). The chunk index is read here, file by file: over
+    thousands of files it would take memory in proportion to the record."""
     from mcap.data_stream import ReadDataStream
     from mcap.records import Chunk
     from mcap.stream_reader import get_chunk_data_stream
     try:
         with file.open('rb') as f:
-            for index in chunk_indexes:
+            summary = make_reader(f).get_summary()
+            if summary is None:  # it had one when iter_chunks began
+                raise ValueError('the summary section is gone')
+            chunk_indexes = sorted(summary.chunk_indexes, key=lambda c: c.chunk_start_offset)
+            batch, size = [], 0
+            for j, index in enumerate(chunk_indexes):
                 f.seek(index.chunk_start_offset + 1 + 8)  # past the record's opcode and length
-                stream, size = get_chunk_data_stream(Chunk.read(ReadDataStream(f)))
-                *frames, bad = _decode_frames(np.frombuffer(stream.read(size), np.uint8), slot_of_channel, slots)
-                if bad >= 0:
-                    raise ValueError(f'malformed record or SampleFrame at byte {bad} of the chunk at '
-                                     f'{index.chunk_start_offset}')
-                yield frames
+                stream, length = get_chunk_data_stream(Chunk.read(ReadDataStream(f)))
+                batch.append(stream.read(length))
+                size += length
+                if size >= _DECODE_BYTES or j == len(chunk_indexes) - 1:
+                    *frames, bad = _decode_frames(np.frombuffer(b''.join(batch), np.uint8), slot_of_channel, slots)
+                    if bad >= 0:
+                        raise ValueError(f'malformed record or SampleFrame in the chunks before byte '
+                                         f'{index.chunk_start_offset + index.chunk_length}')
+                    yield frames
+                    batch, size = [], 0
     except _MCAP_ERRORS as exc:
         raise InputError(f'{file}: unreadable MCAP: {" ".join(str(exc).split()) or type(exc).__name__}') from None
 
@@ -559,50 +582,44 @@ def _frame_layout(buf, body, end):
     return stamp, _little_endian(buf, cdr + 4 + period, 8), samples, data
 
 
+@numba.njit(cache=True)
 def _decode_frames(buf, slot_of_channel, slots):
-    """The SampleFrames on channels with a slot (>= 0) among the records of an uncompressed MCAP chunk.
+    """The SampleFrames on channels with a slot (>= 0) among the records of uncompressed MCAP chunk data.
 
     Returns per frame (in record order) its slot, stamp (ns), sample period and length; the values of each slot
     concatenated in record order, slot s's from starts[s] to starts[s + 1]; and the byte offset of the first
-    malformed record or frame (-1: none)."""
-    counts = np.zeros(slots, dtype=np.int64)
-    none = np.empty(0, dtype=np.int64)
-    frames, bad = _scan(buf, slot_of_channel, counts, none, none, none, none, none, np.empty(0, dtype=np.uint8))
-    starts = np.concatenate(([0], np.cumsum(counts)))
-    values = np.empty(starts[-1])
-    slot_of, stamps, bits, lengths = (np.empty(frames, dtype=np.int64) for _ in range(4))
-    if bad < 0:
-        _scan(buf, slot_of_channel, None, starts[:-1].copy(), slot_of, stamps, bits, lengths, values.view(np.uint8))
-    return slot_of, stamps, bits.view(np.float64), lengths, values, starts, bad
-
-
-@numba.njit(cache=True)
-def _scan(buf, slot_of_channel, counts, filled, slot_of, stamps, bits, lengths, value_bytes):
-    """Walk the records: with counts, add up each slot's samples; else write the frames (filled: where each slot's
-    next values go). Returns (frames, byte offset of the first malformed record or frame, or -1)."""
-    frames = 0
-    pos = 0
+    malformed record or frame (-1: none; the frames before it are returned)."""
+    capacity = buf.size // 63 + 1  # a record with a SampleFrame takes at least 9 + 22 + 32 bytes
+    slot_of = np.empty(capacity, dtype=np.int64)
+    stamps = np.empty(capacity, dtype=np.int64)
+    bits = np.empty(capacity, dtype=np.int64)
+    lengths = np.empty(capacity, dtype=np.int64)
+    data = np.empty(capacity, dtype=np.int64)
+    starts = np.zeros(slots + 1, dtype=np.int64)
+    frames, pos, bad = 0, 0, -1
     while pos < buf.size:
-        if pos + 9 > buf.size:
-            return frames, pos
-        length = _little_endian(buf, pos + 1, 8)
+        length = _little_endian(buf, pos + 1, 8) if pos + 9 <= buf.size else -1
         body, end = pos + 9, pos + 9 + length
         if length < 0 or end > buf.size:
-            return frames, pos
+            bad = pos
+            break
         if buf[pos] == _MCAP_MESSAGE and end >= body + 2:
             channel = _little_endian(buf, body, 2)
             slot = slot_of_channel[channel] if channel < slot_of_channel.size else -1
             if slot >= 0:
-                stamp, period, samples, data = _frame_layout(buf, body, end)
-                if samples < 0:
-                    return frames, pos
-                if counts is not None:
-                    counts[slot] += samples
-                else:
-                    slot_of[frames], stamps[frames], bits[frames], lengths[frames] = slot, stamp, period, samples
-                    at = 8 * filled[slot]
-                    value_bytes[at:at + 8 * samples] = buf[data:data + 8 * samples]
-                    filled[slot] += samples
+                stamps[frames], bits[frames], lengths[frames], data[frames] = _frame_layout(buf, body, end)
+                if lengths[frames] < 0:
+                    bad = pos
+                    break
+                slot_of[frames] = slot
+                starts[slot + 1] += lengths[frames]
                 frames += 1
         pos = end
-    return frames, -1
+    starts = np.cumsum(starts)
+    values = np.empty(starts[slots])
+    filled = starts[:slots].copy()
+    for f in range(frames):
+        at, size = filled[slot_of[f]], lengths[f]
+        values[at:at + size] = buf[data[f]:data[f] + 8 * size].view(np.float64)  # little-endian host; unaligned ok
+        filled[slot_of[f]] += size
+    return slot_of[:frames], stamps[:frames], bits[:frames].view(np.float64), lengths[:frames], values, starts, bad

@@ -8,9 +8,9 @@ data, mechanical for force/position data.
 ARX: y(t) + a1 y(t-1) + ... = b1 u(t-nk) + ... by RLS from theta = 0, P = 1e6 I. Default input voltage,
 output current, orders 2 2 1 (the exact structure of the coil current's response to the voltage).
 
-Records of LONG_SAMPLES samples or more are identified part by part (emla_identification.streaming): a bag is
-then read part by part too and never held whole (a CSV file is; reading it in parts is not worth it), and the
-estimates equal the whole-record ones to rounding.
+Records of 2^20 samples (105 s at 10 kHz) or more are identified part by part, in bounded memory: a bag is
+then never held whole (a CSV file still is: reading it in parts is not worth it); the estimates equal the
+whole-record ones to rounding.
 
 The JSON goes to stdout unless --json is given. A bag written by the suite may carry the true parameters
 (custom metadata true_resistance, ...); --plot then draws them next to the estimates.
@@ -149,10 +149,16 @@ def _record(data):
         head.append(part)
         samples += len(part)
         if samples >= LONG_SAMPLES:
-            return head[0], itertools.chain(head, parts)
+            return head[0], itertools.chain(_handed_over(head), parts)
     first = head[0]  # iter_chunks yields at least one part
     whole = {name: np.concatenate([part.signals[name] for part in head]) for name in first.signals}
     return Recording(first.sample_period, whole, first.start_time, first.source, first.metadata), None
+
+
+def _handed_over(parts):
+    """The parts of a list, each removed from it as it is yielded (so the list does not keep them alive)."""
+    while parts:
+        yield parts.pop(0)
 
 
 def _arx(recording, orders, forgetting, args):
