@@ -135,7 +135,7 @@ def _log_decay(alpha):
     return np.where((alpha > 0.0) & (alpha < 1.0), -np.log(np.where(alpha > 0.0, alpha, 1.0)), np.nan)
 
 
-def _coil_parameters(vector, sample_period):
+def coil_parameters(vector, sample_period):
     """R, L, Km, m, B, Fl from [alpha, beta, gamma, Km/m, B/m, Fl/m] along the last axis of `vector`."""
     alpha, beta, gamma, km_over_m, b_over_m, fl_over_m = np.moveaxis(vector, -1, 0)
     h = _log_decay(alpha)
@@ -147,7 +147,7 @@ def _coil_parameters(vector, sample_period):
                      km * fl_over_m / km_over_m], axis=-1)
 
 
-def _force_parameters(vector, sample_period):
+def force_parameters(vector, sample_period):
     """m, B, Fl from [1/m, B/m, Fl/m] along the last axis."""
     inverse_mass, b_over_m, fl_over_m = np.moveaxis(vector, -1, 0)
     return np.stack([1.0 / inverse_mass, b_over_m / inverse_mass, fl_over_m / inverse_mass], axis=-1)
@@ -194,8 +194,8 @@ def physical_values(model, statistics, sample_period):
 def _parameter_function(statistics):
     """(parameter names, function of the restricted coefficients) for these regressions."""
     if 'force' in statistics:
-        return MODEL_PARAMETERS['mechanical'], _force_parameters
-    return PARAMETER_NAMES, _coil_parameters
+        return MODEL_PARAMETERS['mechanical'], force_parameters
+    return PARAMETER_NAMES, coil_parameters
 
 
 def _restricted(statistics):

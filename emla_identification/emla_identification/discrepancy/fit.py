@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal import lfilter
 
-from emla_identification.greybox import _coil_parameters, _force_parameters
+from emla_identification.greybox import coil_parameters, force_parameters
 from emla_identification.regressors import rows, tie
 
 from .data import State, regression_rows
@@ -224,7 +224,7 @@ def _solve(data, candidates, model, sigma):
 def _physical(kinds, coefficients, ts):
     """Physical parameters (NOMINAL order) from rows of tied coefficients."""
     with np.errstate(all='ignore'):
-        return _force_parameters(coefficients, ts) if kinds == ('force',) else _coil_parameters(coefficients, ts)
+        return force_parameters(coefficients, ts) if kinds == ('force',) else coil_parameters(coefficients, ts)
 
 
 def _jackknife_std(left_out):
