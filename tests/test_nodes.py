@@ -1,6 +1,5 @@
 """The four nodes as processes (`emla run`): frames on every topic, the deterministic lockstep, the latched
 estimate, clean exits; their parameters' descriptors and YAML defaults; `emla run` errors."""
-import contextlib
 import signal
 import subprocess
 import time
@@ -12,9 +11,9 @@ import yaml
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray
 from emla_msgs.msg import ParameterEstimate, SampleFrame
-from rclpy.experimental import EventsExecutor
 from rclpy.parameter import Parameter
 
+from emla_control import launcher
 from emla_control.nodes.controller_node import ControllerNode
 from emla_identification.nodes.identifier_node import IdentifierNode
 from emla_sim.nodes import common
@@ -38,22 +37,9 @@ TRUTH = {'resistance': 4.0, 'inductance': 1.6e-3}
 RCLPY_PARAMETERS = {'use_sim_time', 'start_type_description_service'}  # every rclpy node declares them
 
 
-@contextlib.contextmanager
-def ros_node(monkeypatch):
+def ros_node():
     """An rclpy node and executor of this test process in the isolated domain of its node processes."""
-    env = isolated_env()
-    monkeypatch.setenv('ROS_AUTOMATIC_DISCOVERY_RANGE', env['ROS_AUTOMATIC_DISCOVERY_RANGE'])
-    context = rclpy.Context()
-    rclpy.init(context=context, domain_id=int(env['ROS_DOMAIN_ID']))
-    node = rclpy.create_node('test_nodes', context=context)
-    executor = EventsExecutor(context=context)
-    executor.add_node(node)
-    try:
-        yield node, executor
-    finally:
-        executor.shutdown()
-        node.destroy_node()
-        rclpy.try_shutdown(context=context)
+    return launcher.ros_node('test_nodes', domain=int(isolated_env()['ROS_DOMAIN_ID']))
 
 
 def spin_until(executor, condition, timeout, procs=()):
@@ -106,12 +92,12 @@ def wait_exit(proc, timeout=20):
     assert code == 0 and 'Traceback' not in err, f'{proc.args[2]} exited {code}: {err}'
 
 
-def run_graph(monkeypatch, tmp_path):
+def run_graph(tmp_path):
     """A 0.3 s run of the four nodes; what the test received. The plant starts once the test's subscriptions
     matched the other nodes' publishers (the volatile ones would miss the first messages otherwise), and
     then waits for three /emla/position readers: controller, identifier, test."""
     others = ('sensor', 'identifier', 'controller')
-    with ros_node(monkeypatch) as (node, executor), processes() as start:
+    with ros_node() as (node, executor), processes() as start:
         listener = Listener(node)
         procs = {name: start([EMLA, 'run', name, '--params-file', str(CONFIG[name])]) for name in others}
         outputs = [*common.MEASURED_TOPICS.values(), common.COMMAND_TOPIC, common.REFERENCE_TOPIC,
@@ -134,8 +120,7 @@ def run_graph(monkeypatch, tmp_path):
 
 @pytest.fixture(scope='module')
 def runs(tmp_path_factory):
-    with pytest.MonkeyPatch.context() as monkeypatch:
-        return [run_graph(monkeypatch, tmp_path_factory.mktemp(f'run{k}')) for k in range(2)]
+    return [run_graph(tmp_path_factory.mktemp(f'run{k}')) for k in range(2)]
 
 
 def test_frames_of_every_topic_have_the_size_and_period_of_the_lockstep(runs):
@@ -179,8 +164,8 @@ def test_a_run_done_twice_gives_identical_samples_and_estimates(runs):
         assert [getattr(first, name) for name in TRUTH] == [getattr(second, name) for name in TRUTH]
 
 
-def test_the_plant_exits_0_on_sigterm_while_it_waits_to_start(monkeypatch, tmp_path):
-    with ros_node(monkeypatch) as (node, executor), processes() as start:
+def test_the_plant_exits_0_on_sigterm_while_it_waits_to_start(tmp_path):
+    with ros_node() as (node, executor), processes() as start:
         plant = start([EMLA, 'run', 'plant', '--params-file', params_file(tmp_path, 'plant', start_subscribers=5)])
         spin_until(executor, lambda: ('plant', '/emla') in node.get_node_names_and_namespaces(), 30, [plant])
         plant.send_signal(signal.SIGTERM)

@@ -17,7 +17,7 @@ from emla_sim.errors import InputError
 
 HELP = 'Republish a recorded bag with its timing (or faster).'
 PLAYED_TYPES = (SAMPLE_FRAME, PARAMETER_ESTIMATE)
-LEAD = 50_000_000        # ns of bag time --rate 0 runs ahead of the identifier (frame queues hold 100 frames)
+LEAD = 50_000_000        # ns of bag time --rate 0 runs ahead of the identifier (well within the 1000-frame queues)
 STALL_TIMEOUT = 10.0     # s without progress of the identifier before --rate 0 gives up
 ACK_TIMEOUT = 10.0       # s for the subscribers to acknowledge the last messages
 
