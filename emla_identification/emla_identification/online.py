@@ -78,21 +78,19 @@ class OnlineIdentifier:
 
     def estimate(self):
         """({name: value}, {name: one-sigma}) of the model's parameters; NaN before enough excitation."""
-        names, values, covariance = self._physical()
-        return dict(zip(names, values.tolist())), dict(zip(names, np.sqrt(np.diag(covariance)).tolist()))
+        values, std, _ = self.full_estimate()
+        return values, std
+
+    def full_estimate(self):
+        """estimate() and (names, covariance matrix) of the parameters, from one evaluation of the noise model."""
+        names, values, covariance = physical(self.model, self._statistics(), self.sample_period)
+        return (dict(zip(names, values.tolist())), dict(zip(names, np.sqrt(np.diag(covariance)).tolist())),
+                (names, covariance))
 
     def values(self):
         """{name: value} as estimate() gives them, without the uncertainties' noise model (for per-frame use)."""
         names, values = physical_values(self.model, self._statistics(), self.sample_period)
         return dict(zip(names, values.tolist()))
-
-    def covariance(self):
-        """(names, covariance matrix) of the model's parameters."""
-        names, _, covariance = self._physical()
-        return names, covariance
-
-    def _physical(self):
-        return physical(self.model, self._statistics(), self.sample_period)
 
     def _statistics(self):
         return {kind: Statistics(rls.theta, rls.covariance, self._lags[kind].moments, self._lags[kind].weight,

@@ -32,7 +32,7 @@ SPECS = [
 def estimate(identifier):
     """(values, std, (names, covariance)) of the estimator now."""
     with np.errstate(invalid='ignore'):  # NaN std (negative variance) before enough excitation
-        return (*identifier.estimate(), identifier.covariance())
+        return identifier.full_estimate()
 
 
 def warm_up(identifier):
