@@ -311,6 +311,10 @@ class EmlaNode(Node):
         super().__init__(self.NAME, namespace='/emla')
         self.finished = False
 
+    def stop(self, executor):
+        """Called once the spin loop of `run` ends: wait until readers acknowledged what was published."""
+        wait_for_acknowledgements(self)
+
 
 def wait_for_acknowledgements(node, timeout=ACK_TIMEOUT):
     """Wait (at most `timeout` s) until every reader acknowledged what `node` published: a reader that must
@@ -322,8 +326,8 @@ def wait_for_acknowledgements(node, timeout=ACK_TIMEOUT):
 
 
 def run(node_class, args=None):
-    """Run one node (an EmlaNode class) until it finishes or SIGINT/SIGTERM arrives, then wait for the
-    acknowledgements of what it published; the exit status.
+    """Run one node (an EmlaNode class) until it finishes or SIGINT/SIGTERM arrives, then its stop()
+    (by default: wait for the acknowledgements of what it published); the exit status.
 
     args: the command line with ROS arguments (default sys.argv)."""
     stopping = []
@@ -341,7 +345,7 @@ def run(node_class, args=None):
     try:
         while not stopping and not node.finished:
             executor.spin_once(timeout_sec=0.05)
-        wait_for_acknowledgements(node)
+        node.stop(executor)
     finally:
         executor.shutdown()
         node.destroy_node()

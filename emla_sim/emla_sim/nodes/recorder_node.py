@@ -10,20 +10,14 @@ With `hold_start` (as `emla launch` runs it) the recorder subscribes to the plan
 (/emla/position, see common) only once each of its other topics has a matched publisher: the lockstep plant
 cannot start before the recorder hears every node, so the bag begins at t = 0.
 """
-import signal
 import struct
 import sys
 import time
 
-import rclpy
 from builtin_interfaces.msg import Time
 from emla_msgs.msg import ParameterEstimate, SampleFrame
-from rclpy.exceptions import ParameterException
-from rclpy.experimental import EventsExecutor
-from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
-from rclpy.signals import SignalHandlerOptions
 
 from emla_sim.bag import BagWriter
 from emla_sim.errors import InputError
@@ -65,9 +59,11 @@ def header_stamp_ns(cdr):
     return sec * 1_000_000_000 + nanosec
 
 
-class Recorder(Node):
+class Recorder(common.EmlaNode):
+    NAME = 'recorder'
+
     def __init__(self):
-        super().__init__('recorder', namespace='/emla')
+        super().__init__()
         self.config = common.declare(self, SPECS)
         if not self.config.bag:
             raise InputError('parameter `bag` (output directory) is required')
@@ -110,6 +106,13 @@ class Recorder(Node):
             if self.received != count:
                 count, quiet_since = self.received, time.monotonic()
 
+    def stop(self, executor):
+        """Record what is still in flight, then finish the bag (also when draining is interrupted)."""
+        try:
+            self.drain(executor)
+        finally:
+            self.close()
+
     def close(self):
         self.bag.close()
         self.get_logger().info(f'{sum(self.bag.counts.values())} messages in {len(self.bag.finished)} splits: '
@@ -117,29 +120,7 @@ class Recorder(Node):
 
 
 def main(args=None):
-    # Not common.run: the recorder drains its queues after a stop signal before it closes the bag.
-    stopping = []
-    rclpy.init(args=sys.argv if args is None else args, signal_handler_options=SignalHandlerOptions.NO)
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stopping.append(True))
-    try:
-        recorder = Recorder()
-    except (InputError, ValueError, ParameterException) as error:
-        print(f'recorder: error: {error}', file=sys.stderr)
-        rclpy.shutdown()
-        return 2
-    executor = EventsExecutor()
-    executor.add_node(recorder)
-    try:
-        while not stopping:
-            executor.spin_once(timeout_sec=0.1)
-        recorder.drain(executor)
-    finally:
-        recorder.close()
-        executor.shutdown()
-        recorder.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return common.run(Recorder, args)
 
 
 if __name__ == '__main__':
