@@ -7,7 +7,6 @@ import yaml
 
 from emla_sim.bag import read_bag
 from ros_isolation import VENV_BIN, processes
-from test_recorder import ros_env  # noqa: F401 (fixture: a locked ROS domain)
 
 pytestmark = pytest.mark.timeout(300)
 EMLA = str(VENV_BIN / 'emla')

@@ -8,9 +8,8 @@ import pytest
 import yaml
 from rosbags.highlevel import AnyReader
 
-from emla_control.launcher import reserved_domain
 from emla_sim.bag import read_bag, typestore
-from ros_isolation import VENV_BIN, isolated_env, processes
+from ros_isolation import VENV_BIN, processes
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -43,13 +42,6 @@ for p in publishers.values():
     p.wait_for_all_acked(rclpy.duration.Duration(seconds=10))
 print('published', flush=True)
 '''
-
-
-@pytest.fixture
-def ros_env():
-    """The environment of a ROS domain no other launch or test of these files uses meanwhile (locked)."""
-    with reserved_domain() as domain:
-        yield isolated_env(ROS_DOMAIN_ID=domain)
 
 
 def start_recorder(start, tmp_path, bag, env):

@@ -10,15 +10,14 @@ held-out residual each explains, adds the best one if it is significant, re-iden
 DATA: CSV (t,voltage,current,position or t,force,position), rosbag2 directory or .mcap file.
 The JSON goes to stdout unless --json is given.
 """
-import json
-import math
 import os
 import shutil
-import sys
 import tempfile
 from pathlib import Path
 
 from emla_sim.errors import InputError
+
+from .output import emit_json, json_text
 
 HELP = 'Find what the model is missing: name the effect, add it, show the gap shrink.'
 
@@ -44,27 +43,14 @@ def run(args):
             raise InputError(f'--candidates {args.candidates!r}: unknown effect(s) '
                              f'{", ".join(unknown) or "(none given)"}; known: {", ".join(CANDIDATES)}')
     diagnosis = diagnose(load(args.data), names)
-    text = json.dumps(_finite(diagnosis.to_dict()), indent=2) + '\n'
-    try:
-        if args.report:
-            _write_report(diagnosis, Path(args.report), text)
-        if args.json:
-            _write_json(Path(args.json), text)
-    except OSError as exc:
-        raise InputError(f'{exc.filename or "output"}: cannot write: {exc.strerror or exc}') from None
-    if not args.json:
-        sys.stdout.write(text)
+    result = diagnosis.to_dict()
+    if args.report:
+        try:
+            _write_report(diagnosis, Path(args.report), json_text(result))
+        except OSError as exc:
+            raise InputError(f'{exc.filename or "output"}: cannot write: {exc.strerror or exc}') from None
+    emit_json(result, args.json)
     return 0
-
-
-def _write_json(path, text):
-    temporary = path.with_name(path.name + '.partial')
-    try:
-        temporary.write_text(text)
-        os.replace(temporary, path)
-    finally:
-        if temporary.exists():
-            temporary.unlink()
 
 
 def _write_report(diagnosis, directory, text):
@@ -79,14 +65,3 @@ def _write_report(diagnosis, directory, text):
             os.replace(path, directory / path.name)
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
-
-
-def _finite(value):
-    """JSON-safe: non-finite floats become null."""
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_finite(v) for v in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value

@@ -16,15 +16,15 @@ The JSON goes to stdout unless --json is given. A bag written by the suite may c
 (custom metadata true_resistance, ...); --plot then draws them next to the estimates.
 """
 import itertools
-import json
 import math
-import os
 import sys
 from pathlib import Path
 
 import numpy as np
 
 from emla_sim.errors import InputError
+
+from .output import discard, json_text, publish, stage
 
 HELP = 'Identify actuator parameters (grey-box) or an ARX model from a CSV file or a bag.'
 MODELS = ('electrical', 'mechanical', 'full', 'arx')
@@ -56,23 +56,18 @@ def run(args):
         result, plot = _arx(load(args.data), orders, forgetting, args)
     else:
         result, plot = _greybox(args.data, model, forgetting, args.plot)
-    text = json.dumps(_finite(result), indent=2) + '\n'
+    text = json_text(result)
     staged = []  # (temporary, final): renamed only once every output is complete
     try:
         if args.plot:
             from emla_identification.plots import save_convergence_plot
-            staged.append(_stage(args.plot, lambda temporary: save_convergence_plot(temporary, *plot)))
+            staged.append((stage(args.plot, lambda temporary: save_convergence_plot(temporary, *plot)), args.plot))
         if args.json:
-            staged.append(_stage(args.json, lambda temporary: Path(temporary).write_text(text)))
-        for temporary, final in staged:
-            try:
-                os.replace(temporary, final)
-            except OSError as exc:
-                raise InputError(f'{final}: cannot write: {exc.strerror or exc}') from None
-    finally:
-        for temporary, _ in staged:
-            if os.path.exists(temporary):
-                os.remove(temporary)
+            staged.append((stage(args.json, lambda temporary: Path(temporary).write_text(text)), args.json))
+    except BaseException:
+        discard(staged)
+        raise
+    publish(staged)
     if not args.json:
         sys.stdout.write(text)
     return 0
@@ -185,29 +180,3 @@ def _arx(recording, orders, forgetting, args):
     std = path.std
     title = f'{Path(source).name}: ARX{orders} from {columns[0]} to {columns[1]}'
     return model.to_dict(), (time, dict(zip(names, path.theta.T)), dict(zip(names, std.T)), {}, title)
-
-
-def _stage(path, write):
-    """write(temporary) to a hidden name next to `path`; (temporary, path), or InputError and nothing left."""
-    path = Path(path)
-    temporary = path.with_name(f'.{path.name}.{os.getpid()}.tmp')
-    try:
-        write(temporary)
-    except OSError as exc:
-        if temporary.exists():
-            temporary.unlink()
-        raise InputError(f'{path}: cannot write: {exc.strerror or exc}') from None
-    return temporary, path
-
-
-def _finite(value):
-    """The result with non-finite floats as null (JSON has no NaN)."""
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_finite(v) for v in value]
-    if isinstance(value, (float, np.floating)):
-        return float(value) if math.isfinite(value) else None
-    if isinstance(value, np.integer):
-        return int(value)
-    return value

@@ -5,13 +5,14 @@ and the identifier has published its final estimate; then every process is stopp
 time) goes to stderr, the summary JSON to --json or stdout. realtime_factor is simulated time over the wall
 time between the plant's first and last step; wall_time is the whole launch, start-up and stop included.
 """
-import json
 import signal
 import sys
 import time
 from pathlib import Path
 
 from emla_sim.errors import InputError
+
+from .output import emit_json
 
 HELP = 'Run the plant, sensor, identifier and controller nodes as a ROS 2 graph and record a bag.'
 
@@ -30,17 +31,6 @@ def default_bag(name):
         n += 1
         bag = stem.with_name(f'{stem.name}-{n}')
     return bag
-
-
-def write_json(data, path):
-    """`data` as JSON to `path` (complete or not at all) or to stdout."""
-    text = json.dumps(data, indent=2) + '\n'
-    if path is None:
-        sys.stdout.write(text)
-        return
-    tmp = Path(f'{path}.tmp')
-    tmp.write_text(text)
-    tmp.replace(path)
 
 
 def _interrupt(signum, frame):
@@ -62,7 +52,7 @@ def run(args):
     except LaunchError as error:
         print(f'emla launch: {error}', file=sys.stderr)
         return 1
-    write_json(summary, args.json)
+    emit_json(summary, args.json)
     print(f'emla launch: {duration:g} s simulated in {summary["wall_time"]:.1f} s (real-time factor '
           f'{summary["realtime_factor"]}); bag {bag}', file=sys.stderr)
     return 0

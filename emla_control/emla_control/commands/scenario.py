@@ -6,13 +6,12 @@ many 40 ms cycles), and default (the Table 1 actuator under adaptive control alo
 peak_current}}} (SI units) or writes it with --json; --plot draws the position, tracking error and current of
 each case over the last cycle, as the EMLA paper's Figures 6-7.
 """
-import json
-import os
-import tempfile
 import textwrap
 from pathlib import Path
 
 from emla_sim.errors import InputError
+
+from .output import emit_json, write_file
 
 HELP = 'Run a closed-loop adaptive-control comparison (nominal / changed fixed / changed adaptive).'
 
@@ -31,29 +30,10 @@ def run(args):
         if path and not Path(path).resolve().parent.is_dir():
             raise InputError(f'{path}: its directory does not exist')
     result = scenarios.run_scenario(scenario)
-    text = json.dumps(result.to_json(), indent=2) + '\n'
-    if args.json:
-        _write_atomically(args.json, lambda tmp: Path(tmp).write_text(text))
-    else:
-        print(text, end='')
+    emit_json(result.to_json(), args.json)
     if args.plot:
-        _write_atomically(args.plot, lambda tmp: plot(result, tmp))
+        write_file(args.plot, lambda tmp: plot(result, tmp))
     return 0
-
-
-def _write_atomically(path, write):
-    """write(temporary path) next to `path`, then rename: no half-written file is ever left under its name."""
-    target = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=target.resolve().parent, prefix=f'.{target.name}.', suffix=target.suffix)
-    os.close(fd)
-    try:
-        write(tmp)
-        os.replace(tmp, target)
-    except OSError as exc:
-        raise InputError(f'{path}: cannot write: {exc}') from None
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
 
 
 def plot(result, path):
