@@ -58,7 +58,7 @@ class Listener:
         self.frames = {topic: [] for topic in VOLTAGE_TOPICS + STATE_TOPICS}
         self.estimates, self.diagnostics, self.done = [], [], []
         self.subscriptions = [node.create_subscription(SampleFrame, topic, lambda msg, frames=frames: frames.append(
-            (common.stamp_ns(msg.header.stamp), msg.sample_period, common.frame_data(msg).copy())), common.FRAME_QOS)
+            (common.stamp_to_ns(msg.header.stamp), msg.sample_period, common.frame_data(msg).copy())), common.FRAME_QOS)
             for topic, frames in self.frames.items()]
         self.subscriptions += [
             node.create_subscription(ParameterEstimate, common.ESTIMATE_TOPIC, self.estimates.append, 10),
@@ -71,7 +71,7 @@ class Listener:
 
     def finished(self):
         return self.done and self.estimates and \
-            common.stamp_ns(self.estimates[-1].header.stamp) == common.stamp_ns(self.done[0])
+            common.stamp_to_ns(self.estimates[-1].header.stamp) == common.stamp_to_ns(self.done[0])
 
     def signal(self, topic):
         return np.concatenate([data for _, _, data in self.frames[topic]])
@@ -114,7 +114,7 @@ def run_graph(tmp_path):
             procs[name].send_signal(signal.SIGTERM)
         for name in others:
             wait_exit(procs[name])
-    assert common.stamp_ns(late[0].header.stamp) == PERIODS * MS and late[0].samples_used == PERIODS * SAMPLES
+    assert common.stamp_to_ns(late[0].header.stamp) == PERIODS * MS and late[0].samples_used == PERIODS * SAMPLES
     return listener
 
 
@@ -147,7 +147,7 @@ def test_the_loop_tracks_the_reference_and_the_identifier_sees_aligned_samples(r
     position = listener.signal(common.PLANT_TOPICS['position'])[:-1]
     error = position - listener.signal(common.REFERENCE_TOPIC)[:-SAMPLES]
     assert position.max() > 3.5e-3 and np.sqrt(np.mean(error ** 2)) < 1e-4
-    stamps = [common.stamp_ns(e.header.stamp) for e in listener.estimates]
+    stamps = [common.stamp_to_ns(e.header.stamp) for e in listener.estimates]
     assert stamps == [k * 10 * MS for k in range(1, PERIODS // 10 + 1)]
     final = listener.estimates[-1]
     for name, value in TRUTH.items():  # misaligned samples would bias R and L by tens of per cent

@@ -77,7 +77,7 @@ class ControllerNode(common.EmlaNode):
         self.act()
 
     def on_estimate(self, msg):
-        self.estimates[common.stamp_ns(msg.header.stamp)] = msg
+        self.estimates[common.stamp_to_ns(msg.header.stamp)] = msg
         self.act()
 
     def act(self):

@@ -73,7 +73,7 @@ class IdentifierNode(common.EmlaNode):
             self.publish()
 
     def on_done(self, msg):
-        self.end = common.stamp_ns(msg)
+        self.end = common.stamp_to_ns(msg)
         if self.covered == self.end and self.published != self.end:
             self.publish()
 

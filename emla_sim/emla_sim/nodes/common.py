@@ -79,7 +79,7 @@ from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 
-from emla_sim.bag import PARAMETERS_TOPIC, TRUTH_TOPIC, signal_topic
+from emla_sim.bag import PARAMETERS_TOPIC, TRUTH_TOPIC, signal_topic, stamp_to_ns
 from emla_sim.errors import InputError
 from emla_sim.parameters import PARAMETER_NAMES, TABLE1
 
@@ -108,10 +108,6 @@ ACK_TIMEOUT = 4.0  # s a stopping node waits for its readers' acknowledgements
 
 def to_ns(seconds):
     return int(round(seconds * 1e9))
-
-
-def stamp_ns(stamp):
-    return stamp.sec * 1_000_000_000 + stamp.nanosec
 
 
 def time_msg(ns):
@@ -164,7 +160,7 @@ class FrameSets:
             self._log.error(f'dropped {name} frames of sample period {msg.sample_period} s (the sample_period '
                             f'parameter is {self._step * 1e-9} s)', throttle_duration_sec=5.0)
             return
-        stamp = stamp_ns(msg.header.stamp)
+        stamp = stamp_to_ns(msg.header.stamp)
         if self._next[name] not in (None, stamp):
             self._log.error(f'{name} frames missing from {self._next[name]} to {stamp} ns')
         self._next[name] = stamp + len(msg.data) * step

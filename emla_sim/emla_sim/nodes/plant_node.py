@@ -105,7 +105,7 @@ class PlantNode(common.EmlaNode):
         self.advance()
 
     def on_command(self, msg):
-        stamp = common.stamp_ns(msg.header.stamp)
+        stamp = common.stamp_to_ns(msg.header.stamp)
         if stamp < self.now or len(msg.data) != self.samples:
             self.get_logger().error(f'ignored a voltage command stamped {stamp} ns with {len(msg.data)} samples '
                                     f'(expected {self.samples} from {self.now} ns on)')
