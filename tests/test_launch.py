@@ -125,13 +125,16 @@ def test_a_killed_recorder_stops_the_launch_and_leaves_a_readable_bag(tmp_path):
     with processes() as start:
         launch = start([str(VENV_BIN / 'emla'), 'launch', '--duration', '60', '--bag', str(bag)])
         deadline = time.monotonic() + 120
-        while not (bag / 'metadata.yaml').exists():          # the first split is written
-            assert launch.poll() is None and time.monotonic() < deadline
+        while not list(bag.glob('*.mcap'))[1:]:          # the first split is finished, the second begun
+            if launch.poll() is not None or time.monotonic() > deadline:
+                launch.kill()
+                pytest.fail(f'the launch ended or stalled before a split was finished: {launch.communicate()[1]}')
             time.sleep(0.1)
         children = subprocess.run(['ps', '-o', 'pid=,args=', '--ppid', str(launch.pid)], capture_output=True,
                                   text=True).stdout.splitlines()
         pids = {int(line.split()[0]): line for line in children}
-        recorder = next(pid for pid, line in pids.items() if 'run recorder' in line)
+        recorder = next((pid for pid, line in pids.items() if 'run recorder' in line), None)
+        assert recorder, f'no recorder among the launch\'s processes: {children}'
         os.kill(recorder, signal.SIGKILL)
         _, err = launch.communicate(timeout=60)
     assert launch.returncode == 1

@@ -12,6 +12,7 @@ from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray
 from emla_msgs.msg import ParameterEstimate, SampleFrame
 from rclpy.parameter import Parameter
+from rosgraph_msgs.msg import Clock
 
 from emla_control import launcher
 from emla_control.nodes.controller_node import ControllerNode
@@ -168,6 +169,24 @@ def test_the_plant_exits_0_on_sigterm_while_it_waits_to_start(tmp_path):
     with ros_node() as (node, executor), processes() as start:
         plant = start([EMLA, 'run', 'plant', '--params-file', params_file(tmp_path, 'plant', start_subscribers=5)])
         spin_until(executor, lambda: ('plant', '/emla') in node.get_node_names_and_namespaces(), 30, [plant])
+        plant.send_signal(signal.SIGTERM)
+        wait_exit(plant)
+
+
+def test_the_plant_starts_only_once_its_done_signal_has_a_reader(tmp_path):
+    """A reader of /emla/plant/done found after the plant left would never get it: the plant waits for them."""
+    with ros_node() as (node, executor), processes() as start:
+        ticks = []
+        clock = node.create_subscription(Clock, common.CLOCK_TOPIC, ticks.append, common.CLOCK_QOS)
+        plant = start([EMLA, 'run', 'plant', '--params-file',
+                       params_file(tmp_path, 'plant', start_subscribers=0, done_subscribers=1)])
+        spin_until(executor, lambda: clock.get_publisher_count(), 30, [plant])
+        settle = time.monotonic() + 1.0
+        spin_until(executor, lambda: time.monotonic() > settle, 5, [plant])
+        assert not ticks                                   # matched, but waiting for a reader of the done signal
+        node.create_subscription(Time, common.DONE_TOPIC, lambda msg: None, common.LATCHED_QOS)
+        spin_until(executor, lambda: ticks, 30, [plant])
+        assert common.stamp_to_ns(ticks[0].clock) == 0     # started: the state at t = 0 and /clock = 0
         plant.send_signal(signal.SIGTERM)
         wait_exit(plant)
 

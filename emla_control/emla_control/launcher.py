@@ -175,6 +175,8 @@ def ros_node(name, domain=None):
 
 NODES = ('plant', 'sensor', 'identifier', 'controller')
 START_SUBSCRIBERS = 3        # of /emla/position before the plant starts: controller, identifier, recorder
+DONE_SUBSCRIBERS = 3         # of /emla/plant/done: identifier, recorder and the launcher itself (a discovery
+                             # late by one announcement period would otherwise miss the whole run)
 STALL_TIMEOUT = 60.0         # s without simulated progress (start-up included) before the launch gives up
 FINAL_TIMEOUT = 30.0         # s from the done signal to the identifier's final estimate
 
@@ -246,7 +248,8 @@ def launch(scenario, duration, bag, node_parameters):
 
     started = time.monotonic()
     parameters = {**node_parameters, 'plant': {**node_parameters.get('plant', {}), 'duration': float(duration),
-                                               'start_subscribers': START_SUBSCRIBERS},
+                                               'start_subscribers': START_SUBSCRIBERS,
+                                               'done_subscribers': DONE_SUBSCRIBERS},
                   'recorder': {'bag': str(bag), 'scenario': scenario, 'hold_start': True}}
     with reserved_domain() as domain, tempfile.TemporaryDirectory(prefix='emla-launch-') as tmp, \
             Graph(domain_env(domain)) as graph, ros_node('emla_launch', domain) as (node, executor), \

@@ -28,7 +28,8 @@ CLOCK: best effort, volatile, keep last 1 (as rclpy's time source subscribes); D
 
 Deterministic lockstep in simulated time:
 1. Start: once /emla/position has `start_subscribers` subscriptions (the plant's parameter: controller,
-   identifier, recorders: whoever must see every frame), the plant publishes the state at t = 0.
+   identifier, recorders: whoever must see every frame) and /emla/plant/done has `done_subscribers` (identifier,
+   recorders, a launcher: whoever must learn the end), the plant publishes the state at t = 0.
 2. Sensor: measures each state frame (pairs /emla/plant/current and /position by stamp) and publishes it with
    the same stamp; voltage frames pass unchanged to /emla/voltage.
 3. Controller: from the last sample of each measured state frame (time t = stamp + (size - 1) Ts) it computes

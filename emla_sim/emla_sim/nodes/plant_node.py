@@ -35,6 +35,8 @@ SPECS = [
     common.Spec('parameters_period', 0.01,
                 'publish the true parameters at multiples of this (and after each change), s', 1e-6, 1e6),
     common.Spec('start_subscribers', 2, 'start once /emla/position has this many subscriptions, 1', 0, 1000),
+    common.Spec('done_subscribers', 1, 'and /emla/plant/done this many (the plant leaves once they acknowledged '
+                'it; a reader found later would never get it), 1', 0, 1000),
 ]
 
 
@@ -69,7 +71,7 @@ class PlantNode(common.EmlaNode):
         self.periods = round(p.duration / p.control_period) if p.duration else None
         if self.periods == 0:
             raise InputError(f'duration ({p.duration} s) is shorter than one control period')
-        self.start_subscribers = p.start_subscribers
+        self.start_subscribers = {common.START_TOPIC: p.start_subscribers, common.DONE_TOPIC: p.done_subscribers}
         self.changes = changes_from(p.change_times, p.change_parameters, p.change_factors)
         params = ActuatorParameters(**{name: getattr(p, name) for name in common.ACTUATOR_FIELDS})
         self.supply = params.supply_voltage
@@ -86,14 +88,15 @@ class PlantNode(common.EmlaNode):
         self.clock = self.create_publisher(Clock, common.CLOCK_TOPIC, common.CLOCK_QOS)
         self.create_subscription(SampleFrame, common.COMMAND_TOPIC, self.on_command, common.FRAME_QOS)
         self.barrier = self.create_timer(0.02, self.try_start)
-        self.get_logger().info(f'waiting for {self.start_subscribers} subscription(s) of {common.START_TOPIC}')
+        self.get_logger().info('waiting for ' + ' and '.join(f'{n} subscription(s) of {topic}'
+                                                             for topic, n in self.start_subscribers.items()))
 
     @property
     def now(self):
         return self.period * self.samples * self.step
 
     def try_start(self):
-        if self.count_subscribers(common.START_TOPIC) < self.start_subscribers:
+        if any(self.count_subscribers(topic) < n for topic, n in self.start_subscribers.items()):
             return
         self.barrier.cancel()
         self.get_logger().info('started')
