@@ -26,23 +26,17 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from emla_sim.errors import InputError
 from emla_sim.recording import Recording
+from emla_sim.topics import NAMESPACE, PARAMETERS_TOPIC, TRUTH_TOPIC, signal_topic, stamp_to_ns
 
 SAMPLE_FRAME = 'emla_msgs/msg/SampleFrame'
 PARAMETER_ESTIMATE = 'emla_msgs/msg/ParameterEstimate'
 ARX_MODEL = 'emla_msgs/msg/ArxModel'
-NAMESPACE = '/emla/'
-PARAMETERS_TOPIC = '/emla/parameters'        # online estimates of the identifier
-TRUTH_TOPIC = '/emla/plant/parameters'        # the simulated plant's true parameters as they change
 ESTIMATE_FIELDS = ('resistance', 'inductance', 'emf_constant', 'mass', 'damping', 'load_force')
 
 # QoS offered by the suite's publishers, as rosbag2 stores it (REP-2012 v9 layout).
 _QOS = {'history': 'keep_last', 'depth': 100, 'reliability': 'reliable', 'durability': 'volatile',
         'deadline': {'sec': 0, 'nsec': 0}, 'lifespan': {'sec': 0, 'nsec': 0}, 'liveliness': 'automatic',
         'liveliness_lease_duration': {'sec': 0, 'nsec': 0}, 'avoid_ros_namespace_conventions': False}
-
-
-def signal_topic(name):
-    return NAMESPACE + name
 
 
 def msg_directory():
@@ -69,10 +63,6 @@ def typestore():
         store.register(types)
         _TYPESTORE = store
     return _TYPESTORE
-
-
-def stamp_to_ns(stamp):
-    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
 
 
 def ns_to_stamp(ns):

@@ -12,7 +12,8 @@ import sys
 import time
 from pathlib import Path
 
-from emla_sim.bag import PARAMETER_ESTIMATE, SAMPLE_FRAME, stamp_to_ns, typestore
+from emla_sim.bag import PARAMETER_ESTIMATE, SAMPLE_FRAME, typestore
+from emla_sim.topics import stamp_to_ns
 from emla_sim.errors import InputError
 
 HELP = 'Republish a recorded bag with its timing (or faster).'

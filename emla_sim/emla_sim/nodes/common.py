@@ -80,9 +80,9 @@ from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 
-from emla_sim.bag import PARAMETERS_TOPIC, TRUTH_TOPIC, signal_topic, stamp_to_ns
 from emla_sim.errors import InputError
 from emla_sim.parameters import PARAMETER_NAMES, TABLE1
+from emla_sim.topics import PARAMETERS_TOPIC, TRUTH_TOPIC, signal_topic, stamp_to_ns
 
 SIGNALS = ('voltage', 'current', 'position')
 PLANT_TOPICS = {name: f'/emla/plant/{name}' for name in SIGNALS}
