@@ -22,8 +22,8 @@ from pathlib import Path
 import yaml
 
 from emla_sim.bag import read_bag
-from emla_sim.topics import stamp_to_ns
 from emla_sim.errors import InputError
+from emla_sim.topics import stamp_to_ns
 
 # Domain ids a launch may take: 215-232 first (clear of the ids tests and users pick), then 1-101.
 DOMAINS = (*range(215, 233), *range(1, 102))

@@ -13,8 +13,8 @@ import time
 from pathlib import Path
 
 from emla_sim.bag import PARAMETER_ESTIMATE, SAMPLE_FRAME, typestore
-from emla_sim.topics import stamp_to_ns
 from emla_sim.errors import InputError
+from emla_sim.topics import stamp_to_ns
 
 HELP = 'Republish a recorded bag with its timing (or faster).'
 PLAYED_TYPES = (SAMPLE_FRAME, PARAMETER_ESTIMATE)

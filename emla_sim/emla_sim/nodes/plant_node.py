@@ -71,7 +71,7 @@ class PlantNode(common.EmlaNode):
         self.periods = round(p.duration / p.control_period) if p.duration else None
         if self.periods == 0:
             raise InputError(f'duration ({p.duration} s) is shorter than one control period')
-        self.start_subscribers = {common.START_TOPIC: p.start_subscribers, common.DONE_TOPIC: p.done_subscribers}
+        self.awaited_readers = {common.START_TOPIC: p.start_subscribers, common.DONE_TOPIC: p.done_subscribers}
         self.changes = changes_from(p.change_times, p.change_parameters, p.change_factors)
         params = ActuatorParameters(**{name: getattr(p, name) for name in common.ACTUATOR_FIELDS})
         self.supply = params.supply_voltage
@@ -89,14 +89,14 @@ class PlantNode(common.EmlaNode):
         self.create_subscription(SampleFrame, common.COMMAND_TOPIC, self.on_command, common.FRAME_QOS)
         self.barrier = self.create_timer(0.02, self.try_start)
         self.get_logger().info('waiting for ' + ' and '.join(f'{n} subscription(s) of {topic}'
-                                                             for topic, n in self.start_subscribers.items()))
+                                                             for topic, n in self.awaited_readers.items()))
 
     @property
     def now(self):
         return self.period * self.samples * self.step
 
     def try_start(self):
-        if any(self.count_subscribers(topic) < n for topic, n in self.start_subscribers.items()):
+        if any(self.count_subscribers(topic) < n for topic, n in self.awaited_readers.items()):
             return
         self.barrier.cancel()
         self.get_logger().info('started')
