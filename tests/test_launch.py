@@ -40,6 +40,20 @@ def shm_segments():
     return {p.name for p in Path('/dev/shm').iterdir() if re.fullmatch(r'fastrtps_[0-9a-f]{16}', p.name)}
 
 
+def children(parent):
+    """{pid: argv} of the live children of `parent`, whole (ps would cut long command lines to 80 columns
+    without a terminal)."""
+    found = {}
+    for proc in Path('/proc').iterdir():
+        try:
+            ppid = int((proc / 'stat').read_text().rsplit(')', 1)[1].split()[1])
+            if ppid == parent:
+                found[int(proc.name)] = (proc / 'cmdline').read_text().rstrip('\0').split('\0')
+        except (OSError, ValueError, IndexError):
+            continue
+    return found
+
+
 def alive(pid):
     try:
         os.kill(pid, 0)
@@ -130,11 +144,9 @@ def test_a_killed_recorder_stops_the_launch_and_leaves_a_readable_bag(tmp_path):
                 launch.kill()
                 pytest.fail(f'the launch ended or stalled before a split was finished: {launch.communicate()[1]}')
             time.sleep(0.1)
-        children = subprocess.run(['ps', '-o', 'pid=,args=', '--ppid', str(launch.pid)], capture_output=True,
-                                  text=True).stdout.splitlines()
-        pids = {int(line.split()[0]): line for line in children}
-        recorder = next((pid for pid, line in pids.items() if 'run recorder' in line), None)
-        assert recorder, f'no recorder among the launch\'s processes: {children}'
+        pids = children(launch.pid)
+        recorder = next((pid for pid, args in pids.items() if args[2:4] == ['run', 'recorder']), None)
+        assert recorder, f'no recorder among the launch\'s processes: {pids}'
         os.kill(recorder, signal.SIGKILL)
         _, err = launch.communicate(timeout=60)
     assert launch.returncode == 1
