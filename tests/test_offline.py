@@ -45,6 +45,28 @@ def test_offline_equals_the_recursion(lam):
     np.testing.assert_allclose(est.std, std[0], rtol=1e-6)
 
 
+@pytest.mark.parametrize('lam, every', [(1.0, 4000), (0.999, 4000), (0.98, 7)])
+def test_instrumented_offline_equals_the_instrumented_recursion(lam, every):
+    Phi, Y = regression(20_000, noise=0.2)
+    Zeta = np.roll(Phi, 1, axis=0) + 0.5 * Phi  # instruments correlated with the regressors
+    rls = RecursiveLeastSquares(4, forgetting=lam, windup_limit=math.inf)
+    path = trajectory(Phi, Y, every, instruments=Zeta, forgetting=lam)
+    start = 0
+    for j, end in enumerate(path.samples):
+        rls.update_block(Phi[start:end], Y[start:end], Zeta[start:end])
+        start = end
+        assert_relative(path.theta[j], rls.theta)
+        assert_relative(path.covariance[j], rls.covariance)
+    residuals = Y - Phi @ rls.theta
+    weights = lam ** np.arange(len(Y) - 1, -1, -1.0)
+    effective = weights.sum()
+    assert path.residual_variance[-1] == pytest.approx(weights @ residuals ** 2 / (effective - 4), rel=1e-6)
+    accumulator = offline.WeightedAccumulator(4, instrumented=True, forgetting=lam)
+    for k in range(0, len(Y), 3000):
+        accumulator.add(Phi[k:k + 3000], Y[k:k + 3000], Zeta[k:k + 3000])
+    assert_relative(accumulator.estimate().theta, rls.theta)
+
+
 def test_offline_equals_the_recursion_when_lambda_to_the_n_underflows():
     Phi, Y = regression(200_000, seed=1)
     lam = 0.99

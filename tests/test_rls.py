@@ -70,6 +70,40 @@ def test_recursion_is_the_weighted_least_squares_solution(lam):
     assert rls.samples == 500
 
 
+def errors_in_variables(N, seed=0, noise=0.5):
+    """Regressors seen through noise that the outputs' error shares (as a fed-back measurement does), and
+    instruments: the same noisy regressors one sample earlier (smooth AR(1) signals, independent noise)."""
+    rng = np.random.default_rng(seed)
+    x = np.zeros((N + 1, 3))
+    for k in range(1, N + 1):
+        x[k] = 0.95 * x[k - 1] + rng.normal(size=3)
+    seen = x + noise * rng.normal(size=x.shape)
+    Y = x[1:] @ THETA + 0.01 * rng.normal(size=N)
+    return seen[1:], Y, seen[:-1]
+
+
+@pytest.mark.parametrize('lam', [1.0, 0.995])
+def test_instrumented_recursion_is_the_weighted_iv_solution(lam):
+    Phi, Y, Zeta = errors_in_variables(3000)
+    rls = RecursiveLeastSquares(3, forgetting=lam)
+    rls.update_block(Phi, Y, Zeta)
+    w = lam ** np.arange(len(Y) - 1, -1, -1.0)
+    A = lam ** len(Y) * np.eye(3) / 1e6 + Zeta.T @ (w[:, None] * Phi)
+    np.testing.assert_allclose(rls.theta, np.linalg.solve(A, Zeta.T @ (w * Y)), rtol=1e-8)
+    np.testing.assert_allclose(rls.covariance, np.linalg.inv(A), rtol=1e-7, atol=1e-8 * np.abs(np.linalg.inv(A)).max())
+
+
+def test_instruments_remove_the_bias_of_noisy_regressors():
+    Phi, Y, Zeta = errors_in_variables(200_000, seed=1)
+    least_squares, instrumented = RecursiveLeastSquares(3), RecursiveLeastSquares(3)
+    least_squares.update_block(Phi, Y)
+    instrumented.update_block(Phi, Y, Zeta)
+    assert np.abs(least_squares.theta - THETA).max() > 0.01    # attenuated by the regressor noise
+    np.testing.assert_allclose(instrumented.theta, THETA, atol=0.003)
+    with pytest.raises(ValueError, match='instruments'):
+        instrumented.update_block(Phi, Y, Zeta[:, :2])
+
+
 def test_update_and_update_block_run_the_same_recursion():
     Phi, Y = regression(300)
     one, block = RecursiveLeastSquares(3, forgetting=0.98), RecursiveLeastSquares(3, forgetting=0.98)

@@ -13,7 +13,7 @@ from emla_identification import streaming
 from emla_identification.greybox import LagMoments, identify
 from emla_identification.offline import WeightedAccumulator, weighted_least_squares
 from emla_identification.online import OnlineIdentifier
-from emla_identification.regressors import HISTORY, rows
+from emla_identification.regressors import HISTORY, instruments, rows
 from emla_identification.streaming import RowStream, identify_chunks
 from emla_sim.bag import SAMPLE_FRAME, BagWriter, iter_chunks, read_bag, sample_frame, typestore, write_recording
 from emla_sim.errors import InputError
@@ -85,12 +85,14 @@ def test_row_stream_gives_the_rows_of_the_whole_record():
     stream = RowStream(('electrical', 'mechanical'), recording.sample_period)
     got = {'electrical': [], 'mechanical': []}
     for part in parts(recording):
-        for kind, (phi, y) in stream.rows(part.signals).items():
-            got[kind].append(np.column_stack((phi, y)))
+        for kind, (phi, y, zeta) in stream.rows(part.signals).items():
+            got[kind].append(np.column_stack((phi, y) if zeta is None else (phi, y, zeta)))
     assert stream.samples == len(recording)
     for kind, blocks in got.items():
-        whole = np.column_stack(rows(kind, recording.signals, recording.sample_period))
-        np.testing.assert_array_equal(np.concatenate(blocks), whole)
+        whole = rows(kind, recording.signals, recording.sample_period)
+        zeta = instruments(kind, recording.signals, recording.sample_period)
+        np.testing.assert_array_equal(np.concatenate(blocks), np.column_stack(whole if zeta is None else (*whole, zeta)))
+    assert got['electrical'][0].shape[1] == 9 and got['mechanical'][0].shape[1] == 5  # instruments for electrical
 
 
 def assert_same_result(streamed, whole):

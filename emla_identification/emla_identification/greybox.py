@@ -1,16 +1,18 @@
 """Physical EMLA parameters (R, L, Km, m, B, Fl) from the regressions of regressors.py.
 
-Each regression is solved by exponentially weighted least squares (whole recordings: offline.py; streams:
-rls.py, see online.py). Its state (theta, P, residual variance) holds the quadratic cost completely, so the
-coefficient that depends on h = R Ts / L (see regressors.py) is tied afterwards: the cost is minimised
-over the reduced coefficients with that tie, for h from the electrical estimate, a few times until h
+Each regression is solved by exponentially weighted least squares, the electrical one by instrumental
+variables (regressors.instruments; whole recordings: offline.py; streams: rls.py, see online.py). Its state
+(theta and P, the inverse of its normal equations' matrix) holds those equations completely, so the
+coefficient that depends on h = R Ts / L (see regressors.py) is tied afterwards: the equations are solved
+for the reduced coefficients with that tie, for h from the electrical estimate, a few times until h
 settles. Stream and batch therefore give the same parameters from the same samples.
 
 Uncertainties are one-sigma. The residuals are far from white (differencing the quantised position colours
 them), so sigma2 P would misstate them badly; they come from a noise model instead: white noise on each
 measured signal, carried through the rows, with variances fitted to the residual autocovariances
 (_noise_variances), and the sandwich covariance that noise gives the weighted estimate
-(_coefficient_covariances), from lagged moments kept alongside the least-squares state (LagMoments). The
+(_coefficient_covariances), from lagged moments of the rows and the instruments kept alongside the
+least-squares state (LagMoments). The
 delta method carries it to the physical parameters, the regressions taken as independent. On the test data
 the reported values match the scatter over noise realisations to within some 50 %.
 """
@@ -25,8 +27,8 @@ from emla_sim.errors import InputError
 from emla_sim.parameters import PARAMETER_NAMES
 
 from . import offline
-from .regressors import (COLUMNS, HISTORY, SIGNALS, default_model, emf_lag, noise_stencils, regressions_for, rows,
-                         tie)
+from .regressors import (COLUMNS, HISTORY, SIGNALS, default_model, emf_lag, instruments, noise_stencils,
+                         regressions_for, rows, tie)
 from .rls import forgetting_factor
 
 MODEL_PARAMETERS = {
@@ -101,20 +103,23 @@ def _lag_products(tail, z, weights, moments):
 @dataclass(frozen=True)
 class Statistics:
     """State of one regression: theta and P (unscaled) as rls.py and offline.py keep them, and the LagMoments
-    (moments, weight) of its rows for the noise model."""
+    (moments, weight) of its rows z = [phi, y] for the noise model, and of its instruments (None: least
+    squares, the regressors are the instruments)."""
 
     theta: np.ndarray
     covariance: np.ndarray
     lags: np.ndarray
     weight: float
     forgetting: float
+    instrument_moments: np.ndarray = None
 
     @functools.cached_property
     def information(self):
+        """The normal equations' matrix: sum w phi phi' (least squares) or sum w zeta phi' (instruments)."""
         return np.linalg.inv(self.covariance)
 
     def restrict(self, T):
-        """theta_r minimising the same cost with coefficients T' theta_r."""
+        """theta_r solving the same normal equations with coefficients T' theta_r (T's rows combine them)."""
         return np.linalg.solve(T @ self.information @ T.T, T @ self.information @ self.theta)
 
     def residual_products(self, T, theta):
@@ -123,10 +128,11 @@ class Statistics:
         return self.lags @ a @ a
 
     @functools.cached_property
-    def regressor_lags(self):
-        """[S_0, S_1, ..]: S_0 = sum w^2 phi_k phi_k', S_d = sum w^2 phi_k phi_(k-d)' + its transpose."""
+    def instrument_lags(self):
+        """[S_0, S_1, ..]: S_0 = sum w^2 zeta_k zeta_k', S_d = sum w^2 zeta_k zeta_(k-d)' + its transpose (zeta:
+        the instruments, or the regressors phi under least squares)."""
         n = len(self.theta)
-        ahead = self.lags[:, :n, :n]
+        ahead = self.lags[:, :n, :n] if self.instrument_moments is None else self.instrument_moments
         return np.concatenate((ahead[:1], ahead[1:] + np.swapaxes(ahead[1:], 1, 2)))
 
 
@@ -251,19 +257,20 @@ def _coefficient_covariances(statistics, restricted, variances, sample_period):
 
     The residuals are coloured (the second difference of the quantised position dominates the mechanical
     one; sigma2 P would overstate B's uncertainty some 60 times), so the covariance is the sandwich
-    P_r (sum_s sigma_s^2 sum_i psi_i psi_i') P_r: the error sum_k w_k phi_r,k e_k gets the noise of sample i
-    through psi_i = sum_j c_j w_k phi_r,k (k = i + 2 - j, c the signal's noise filter). Expanded, that is
-    sum_d lambda^d g_d S_d over the LagMoments, g the autocorrelation of c; it cancels to what is left at
-    low frequency exactly, so it stays positive semi-definite.
+    P_r (sum_s sigma_s^2 sum_i psi_i psi_i') P_r': the error sum_k w_k zeta_r,k e_k gets the noise of sample i
+    through psi_i = sum_j c_j w_k zeta_r,k (k = i + 2 - j, c the signal's noise filter; zeta the instruments,
+    phi under least squares). Expanded, that is sum_d lambda^d g_d S_d over the LagMoments, g the
+    autocorrelation of c; it cancels to what is left at low frequency exactly, so it stays positive
+    semi-definite.
     """
     covariances = {}
     for kind, (T, theta) in restricted.items():
         stats = statistics[kind]
         decay = stats.forgetting ** np.arange(HISTORY + 1)
-        middle = sum(variances[name] * np.einsum('d,dij->ij', decay * _autocorrelation(c), stats.regressor_lags)
+        middle = sum(variances[name] * np.einsum('d,dij->ij', decay * _autocorrelation(c), stats.instrument_lags)
                      for name, c in _noise_filters(kind, T, theta, sample_period).items())
         inverse = np.linalg.inv(T @ stats.information @ T.T)
-        covariances[kind] = inverse @ T @ middle @ T.T @ inverse
+        covariances[kind] = inverse @ T @ middle @ T.T @ inverse.T
     return covariances
 
 
@@ -320,16 +327,20 @@ def identify(recording, model=None, forgetting=1.0, *, initial_covariance=1e6, p
     report = progress or (lambda fraction: None)
     n, ts = len(recording), recording.sample_period
     every = max(1, (n - HISTORY) // points)
-    tracks, lags = {}, {}
+    tracks, lags, instrument_lags = {}, {}, {}
     for j, kind in enumerate(kinds):
         phi, y = rows(kind, recording.signals, ts)
+        zeta = instruments(kind, recording.signals, ts)
         _check_excitation(phi.T @ phi, kind, source)
-        tracks[kind] = offline.trajectory(phi, y, every, forgetting=lam, initial_covariance=initial_covariance)
-        lags[kind] = _lag_trajectory(np.column_stack((phi, y)), tracks[kind].samples, lam)
+        tracks[kind] = offline.trajectory(phi, y, every, instruments=zeta, forgetting=lam,
+                                          initial_covariance=initial_covariance)
+        ends = tracks[kind].samples
+        lags[kind] = _lag_trajectory(np.column_stack((phi, y)), ends, lam)
+        instrument_lags[kind] = [None] * len(ends) if zeta is None else \
+            [moments for moments, _ in _lag_trajectory(zeta, ends, lam)]
         report((j + 1) / (len(kinds) + 1))
-    ends = next(iter(tracks.values())).samples
-    snapshots = [{kind: Statistics(t.theta[j], t.covariance[j], *lags[kind][j], lam) for kind, t in tracks.items()}
-                 for j in range(len(ends))]
+    snapshots = [{kind: Statistics(t.theta[j], t.covariance[j], *lags[kind][j], lam, instrument_lags[kind][j])
+                  for kind, t in tracks.items()} for j in range(len(ends))]
     return _result(model, snapshots, ends, recording, n, lam,
                    lambda j: report((len(kinds) + (j + 1) / len(ends)) / (len(kinds) + 1)))
 

@@ -2,7 +2,7 @@
 
 The rows are those of regressors.py, computed per frame with the last HISTORY samples of the previous frame
 in front (streaming.RowStream), so the stream yields exactly the rows of the whole record; each regression runs
-its own RecursiveLeastSquares over them. The physical parameters are formed from the recursions' states by
+its own RecursiveLeastSquares over them (with its instruments, if it has any). The physical parameters are formed from the recursions' states by
 greybox.physical, as greybox.identify forms them from the batch solution: with forgetting 1 the final
 estimate equals greybox.identify on the same samples (to rounding).
 """
@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 from .greybox import LagMoments, Statistics, physical, physical_values
-from .regressors import COLUMNS, SIGNALS, regressions_for
+from .regressors import COLUMNS, INSTRUMENTED, SIGNALS, regressions_for
 from .rls import RecursiveLeastSquares
 from .streaming import RowStream
 
@@ -46,6 +46,8 @@ class OnlineIdentifier:
         for rls in self._rls.values():
             rls.reset()
         self._lags = {kind: LagMoments(rls.n + 1, rls.forgetting) for kind, rls in self._rls.items()}
+        self._instrument_lags = {kind: LagMoments(rls.n, rls.forgetting) for kind, rls in self._rls.items()
+                                 if kind in INSTRUMENTED}
         self._stream.reset()
         self._residual_rms = math.nan
 
@@ -54,12 +56,15 @@ class OnlineIdentifier:
         given = {'voltage': voltage, 'current': current, 'position': position, 'force': force}
         if any(given[name] is None for name in self._stream.signals):
             raise ValueError(f'the {self.model} identifier needs {", ".join(self._stream.signals)} in each frame')
-        for kind, (phi, y) in self._stream.rows(given).items():
+        for kind, (phi, y, zeta) in self._stream.rows(given).items():
             rls = self._rls[kind]
-            errors = rls.update_block(phi, y)
+            errors = rls.update_block(phi, y, zeta)
             z = np.column_stack((phi, y))
-            z[~np.isfinite(z).all(axis=1)] = 0.0  # skipped by the recursion: no contribution, lags kept aligned
+            skipped = ~np.isfinite(errors)  # by the recursion: no contribution, lags kept aligned
+            z[skipped] = 0.0
             self._lags[kind].update(z)
+            if zeta is not None:
+                self._instrument_lags[kind].update(np.where(skipped[:, None], 0.0, zeta))
             errors = errors[np.isfinite(errors)]  # the recursion skips non-finite samples
             if kind == 'electrical' and len(errors):
                 # a-priori current error over beta = voltage-equation error (V)
@@ -94,4 +99,6 @@ class OnlineIdentifier:
 
     def _statistics(self):
         return {kind: Statistics(rls.theta, rls.covariance, self._lags[kind].moments, self._lags[kind].weight,
-                                 rls.forgetting) for kind, rls in self._rls.items()}
+                                 rls.forgetting, self._instrument_lags[kind].moments
+                                 if kind in self._instrument_lags else None)
+                for kind, rls in self._rls.items()}

@@ -14,6 +14,12 @@ After N samples theta minimises
 and P = (lambda^N P0^-1 + sum_k lambda^(N-k) phi_k phi_k')^-1, the inverse of the weighted information
 matrix; offline.py computes the same solution in batch.
 
+Instrumental variables: given instruments zeta_k (update_block's `instruments`), g = P zeta and
+P = (P - g phi' P / d) / lambda with d = lambda + phi' g. Then theta solves the weighted normal equations
+with zeta in place of phi on the left, (lambda^N P0^-1 + sum_k lambda^(N-k) zeta_k phi_k') theta = lambda^N
+P0^-1 theta0 + sum_k lambda^(N-k) zeta_k y_k, and P is that matrix's inverse (not symmetric). It is consistent
+where noise in the regressors is correlated with the error (closed loop) and the instruments are not.
+
 Covariance semantics: `covariance` is P itself (unscaled). The parameter covariance is sigma2 P
 (`parameter_covariance()`, `parameter_std()`), sigma2 being the weighted residual sum of squares
 divided by (effective samples - n). For lambda = 1 this is the usual least-squares covariance; for
@@ -68,6 +74,47 @@ def _rls_kernel(theta, P, stats, Phi, Y, lam, limit, adapt, errors):
                 P[i, j] = p
                 P[j, i] = p
         stats[0] = lam_k * stats[0] + e * e * (lam_k / d)  # e times the a-posteriori error
+        stats[1] = lam_k * stats[1] + 1.0
+        stats[2] += 1.0
+
+
+@numba.njit(cache=True)
+def _iv_kernel(theta, P, stats, Phi, Y, Zeta, lam, limit, adapt, errors):
+    """_rls_kernel with instruments Zeta (instrumental variables): g = P zeta, P -= g (P' phi)' / d."""
+    n = theta.shape[0]
+    g = np.empty(n)
+    h = np.empty(n)
+    for k in range(Phi.shape[0]):
+        e = Y[k]
+        z = 0.0
+        for i in range(n):
+            e -= Phi[k, i] * theta[i]
+            z += Zeta[k, i]
+        if not (np.isfinite(e) and np.isfinite(z)):  # skipped, as if absent
+            errors[k] = np.nan
+            continue
+        errors[k] = e
+        if not adapt:
+            continue
+        q = 0.0
+        trace = 0.0
+        for i in range(n):
+            s = 0.0
+            t = 0.0
+            for j in range(n):
+                s += P[i, j] * Zeta[k, j]
+                t += P[j, i] * Phi[k, j]
+            g[i] = s
+            h[i] = t
+            q += Phi[k, i] * s
+            trace += P[i, i]
+        lam_k = min(1.0, max(lam, lam * trace / limit))
+        d = lam_k + q
+        for i in range(n):
+            theta[i] += g[i] * (e / d)
+            for j in range(n):
+                P[i, j] = (P[i, j] - g[i] * h[j] / d) / lam_k
+        stats[0] = lam_k * stats[0] + e * e * (lam_k / d)
         stats[1] = lam_k * stats[1] + 1.0
         stats[2] += 1.0
 
@@ -173,11 +220,19 @@ class RecursiveLeastSquares:
         self._run(self._one_phi, self._one_y, self._one_e)
         return float(self._one_e[0])
 
-    def update_block(self, Phi, Y):
-        """The same recursion over the rows of Phi (N x n) and Y (N,); returns the N a-priori errors."""
+    def update_block(self, Phi, Y, instruments=None):
+        """The same recursion over the rows of Phi (N x n) and Y (N,); returns the N a-priori errors.
+
+        instruments: None, or an N x n array of instruments (instrumental variables, see the module doc)."""
         Phi, Y = check_regression(Phi, Y, self._n)
         errors = np.empty(Y.shape[0])
-        self._run(Phi, Y, errors)
+        if instruments is None:
+            self._run(Phi, Y, errors)
+            return errors
+        Zeta = np.ascontiguousarray(instruments, dtype=float)
+        if Zeta.shape != Phi.shape:
+            raise ValueError(f'instruments must be an array of the regressors\' shape {Phi.shape}, got {Zeta.shape}')
+        _iv_kernel(self._theta, self._P, self._stats, Phi, Y, Zeta, self._lam, self._limit, self._enabled, errors)
         return errors
 
     def _run(self, Phi, Y, errors):

@@ -14,7 +14,7 @@ import numpy as np
 from emla_sim.recording import Recording
 
 from . import greybox, offline
-from .regressors import COLUMNS, HISTORY, SIGNALS, rows
+from .regressors import COLUMNS, HISTORY, INSTRUMENTED, SIGNALS, instruments, rows
 
 CHUNK_SAMPLES = 1 << 14  # samples whose rows are formed at a time: they stay in cache
 
@@ -34,7 +34,8 @@ class RowStream:
         self.samples = 0
 
     def rows(self, frame):
-        """{kind: (Phi, Y)} of the rows the frame {signal: 1-D array of equal lengths} completes."""
+        """{kind: (Phi, Y, instruments or None)} of the rows the frame {signal: 1-D array of equal lengths}
+        completes."""
         new = {name: np.asarray(frame[name], dtype=float).reshape(-1) for name in self.signals}
         lengths = {len(values) for values in new.values()}
         if len(lengths) != 1:
@@ -42,7 +43,8 @@ class RowStream:
         joined = {name: np.concatenate((self._tail[name], values)) for name, values in new.items()}
         self._tail = {name: values[-HISTORY:].copy() for name, values in joined.items()}
         self.samples += lengths.pop()
-        return {kind: rows(kind, joined, self.sample_period) for kind in self.kinds}
+        return {kind: (*rows(kind, joined, self.sample_period), instruments(kind, joined, self.sample_period))
+                for kind in self.kinds}
 
 
 class _Regression:
@@ -50,15 +52,18 @@ class _Regression:
 
     def __init__(self, kind, forgetting, initial_covariance):
         n = len(COLUMNS[kind])
-        self.least_squares = offline.WeightedAccumulator(n, forgetting=forgetting,
+        self.least_squares = offline.WeightedAccumulator(n, instrumented=kind in INSTRUMENTED, forgetting=forgetting,
                                                          initial_covariance=initial_covariance)
         self.lags = greybox.LagMoments(n + 1, forgetting)
+        self.instrument_lags = greybox.LagMoments(n, forgetting) if kind in INSTRUMENTED else None
         self._gram = None if forgetting == 1.0 else np.zeros((n, n))  # else the lag-0 moment is that sum
 
-    def add(self, phi, y):
-        z = np.column_stack((phi, y))
+    def add(self, phi, y, zeta):
+        z = np.column_stack((phi, y) if zeta is None else (phi, y, zeta))
         self.least_squares.add_stacked(z)
-        self.lags.update(z)
+        self.lags.update(z[:, :phi.shape[1] + 1])
+        if zeta is not None:
+            self.instrument_lags.update(zeta)
         if self._gram is not None:
             self._gram += phi.T @ phi
 
@@ -69,7 +74,8 @@ class _Regression:
     def statistics(self):
         estimate = self.least_squares.estimate()
         return greybox.Statistics(estimate.theta, estimate.covariance, self.lags.moments.copy(), self.lags.weight,
-                                  self.least_squares.forgetting)
+                                  self.least_squares.forgetting,
+                                  None if self.instrument_lags is None else self.instrument_lags.moments.copy())
 
 
 def identify_chunks(chunks, model=None, forgetting=1.0, *, initial_covariance=1e6, points=200, progress=None):
@@ -92,8 +98,8 @@ def identify_chunks(chunks, model=None, forgetting=1.0, *, initial_covariance=1e
         greybox._check_finite(part, kinds, first=stream.samples)
         for start in range(0, len(part), CHUNK_SAMPLES):  # whatever the parts' size, rows in cache-sized slices
             piece = {name: part.signals[name][start:start + CHUNK_SAMPLES] for name in stream.signals}
-            for kind, (phi, y) in stream.rows(piece).items():
-                regressions[kind].add(phi, y)
+            for kind, (phi, y, zeta) in stream.rows(piece).items():
+                regressions[kind].add(phi, y, zeta)
         if stream.samples > HISTORY:
             parts += 1
             if parts % stride == 0 and points > 1:  # every stride-th part, stride doubling to keep < points
