@@ -91,7 +91,8 @@ def test_row_stream_gives_the_rows_of_the_whole_record():
     for kind, blocks in got.items():
         whole = rows(kind, recording.signals, recording.sample_period)
         zeta = instruments(kind, recording.signals, recording.sample_period)
-        np.testing.assert_array_equal(np.concatenate(blocks), np.column_stack(whole if zeta is None else (*whole, zeta)))
+        expected = np.column_stack(whole if zeta is None else (*whole, zeta))
+        np.testing.assert_array_equal(np.concatenate(blocks), expected)
     assert got['electrical'][0].shape[1] == 9 and got['mechanical'][0].shape[1] == 5  # instruments for electrical
 
 

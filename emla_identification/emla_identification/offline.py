@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .rls import check_order, check_regression, forgetting_factor, prior
+from .rls import check_instruments, check_order, check_regression, forgetting_factor, prior
 
 _CHUNK_ROWS = 65536
 _MAX_BLOCKS = 4096      # bounds the (blocks, n+1, n+1) intermediates of trajectory()
@@ -134,10 +134,7 @@ def _stacker(Phi, Y, instruments=None):
     """stacked(start, stop): rows [start, stop) as one array of z = [phi, y] or [phi, y, zeta]."""
     n = Phi.shape[1]
     if instruments is not None:
-        instruments = np.asarray(instruments, dtype=float)
-        if instruments.shape != Phi.shape:
-            raise ValueError(f'instruments must be an array of the regressors\' shape {Phi.shape}, '
-                             f'got {instruments.shape}')
+        instruments = check_instruments(instruments, Phi)
 
     def stacked(start, stop):
         Z = np.empty((stop - start, n + 1 if instruments is None else 2 * n + 1))

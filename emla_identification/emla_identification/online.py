@@ -2,9 +2,9 @@
 
 The rows are those of regressors.py, computed per frame with the last HISTORY samples of the previous frame
 in front (streaming.RowStream), so the stream yields exactly the rows of the whole record; each regression runs
-its own RecursiveLeastSquares over them (with its instruments, if it has any). The physical parameters are formed from the recursions' states by
-greybox.physical, as greybox.identify forms them from the batch solution: with forgetting 1 the final
-estimate equals greybox.identify on the same samples (to rounding).
+its own RecursiveLeastSquares over them (with its instruments, if it has any). The physical parameters are
+formed from the recursions' states by greybox.physical, as greybox.identify forms them from the batch solution:
+with forgetting 1 the final estimate equals greybox.identify on the same samples (to rounding).
 """
 import math
 

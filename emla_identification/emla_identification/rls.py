@@ -42,45 +42,11 @@ import numpy as np
 
 
 @numba.njit(cache=True)
-def _rls_kernel(theta, P, stats, Phi, Y, lam, limit, adapt, errors):
-    """Run the recursion over the rows of Phi, Y in place; stats = [weighted RSS, effective samples, samples]."""
-    n = theta.shape[0]
-    g = np.empty(n)
-    for k in range(Phi.shape[0]):
-        e = Y[k]
-        for i in range(n):
-            e -= Phi[k, i] * theta[i]
-        if not np.isfinite(e):  # a non-finite sample is skipped, as if absent
-            errors[k] = np.nan
-            continue
-        errors[k] = e
-        if not adapt:
-            continue
-        q = 0.0
-        trace = 0.0
-        for i in range(n):
-            s = 0.0
-            for j in range(n):
-                s += P[i, j] * Phi[k, j]
-            g[i] = s
-            q += Phi[k, i] * s
-            trace += P[i, i]
-        lam_k = min(1.0, max(lam, lam * trace / limit))
-        d = lam_k + q
-        for i in range(n):
-            theta[i] += g[i] * (e / d)
-            for j in range(i, n):  # computing one triangle and mirroring keeps P exactly symmetric
-                p = (P[i, j] - g[i] * g[j] / d) / lam_k
-                P[i, j] = p
-                P[j, i] = p
-        stats[0] = lam_k * stats[0] + e * e * (lam_k / d)  # e times the a-posteriori error
-        stats[1] = lam_k * stats[1] + 1.0
-        stats[2] += 1.0
+def _rls_kernel(theta, P, stats, Phi, Y, Zeta, instrumented, lam, limit, adapt, errors):
+    """Run the recursion over the rows of Phi, Y in place; stats = [weighted RSS, effective samples, samples].
 
-
-@numba.njit(cache=True)
-def _iv_kernel(theta, P, stats, Phi, Y, Zeta, lam, limit, adapt, errors):
-    """_rls_kernel with instruments Zeta (instrumental variables): g = P zeta, P -= g (P' phi)' / d."""
+    Zeta: the instruments if `instrumented` (g = P zeta, P -= g (P' phi)' / d), else Phi itself (least squares:
+    one triangle of P is computed and mirrored, which keeps P exactly symmetric)."""
     n = theta.shape[0]
     g = np.empty(n)
     h = np.empty(n)
@@ -90,7 +56,7 @@ def _iv_kernel(theta, P, stats, Phi, Y, Zeta, lam, limit, adapt, errors):
         for i in range(n):
             e -= Phi[k, i] * theta[i]
             z += Zeta[k, i]
-        if not (np.isfinite(e) and np.isfinite(z)):  # skipped, as if absent
+        if not (np.isfinite(e) and np.isfinite(z)):  # a non-finite sample is skipped, as if absent
             errors[k] = np.nan
             continue
         errors[k] = e
@@ -103,18 +69,22 @@ def _iv_kernel(theta, P, stats, Phi, Y, Zeta, lam, limit, adapt, errors):
             t = 0.0
             for j in range(n):
                 s += P[i, j] * Zeta[k, j]
-                t += P[j, i] * Phi[k, j]
+                if instrumented:
+                    t += P[j, i] * Phi[k, j]
             g[i] = s
-            h[i] = t
+            h[i] = t if instrumented else s
             q += Phi[k, i] * s
             trace += P[i, i]
         lam_k = min(1.0, max(lam, lam * trace / limit))
         d = lam_k + q
         for i in range(n):
             theta[i] += g[i] * (e / d)
-            for j in range(n):
-                P[i, j] = (P[i, j] - g[i] * h[j] / d) / lam_k
-        stats[0] = lam_k * stats[0] + e * e * (lam_k / d)
+            for j in range(0 if instrumented else i, n):
+                p = (P[i, j] - g[i] * h[j] / d) / lam_k
+                P[i, j] = p
+                if not instrumented:
+                    P[j, i] = p
+        stats[0] = lam_k * stats[0] + e * e * (lam_k / d)  # e times the a-posteriori error
         stats[1] = lam_k * stats[1] + 1.0
         stats[2] += 1.0
 
@@ -177,6 +147,14 @@ def check_regression(Phi, Y, n):
     return Phi, Y
 
 
+def check_instruments(Zeta, Phi):
+    """Zeta as a C-contiguous float array of the regressors' shape (instrumental variables)."""
+    Zeta = np.ascontiguousarray(Zeta, dtype=float)
+    if Zeta.shape != Phi.shape:
+        raise ValueError(f'instruments must be an array of the regressors\' shape {Phi.shape}, got {Zeta.shape}')
+    return Zeta
+
+
 class RecursiveLeastSquares:
     """Per-sample RLS with forgetting, a covariance wind-up guard, freeze and reset (see the module doc).
 
@@ -226,17 +204,12 @@ class RecursiveLeastSquares:
         instruments: None, or an N x n array of instruments (instrumental variables, see the module doc)."""
         Phi, Y = check_regression(Phi, Y, self._n)
         errors = np.empty(Y.shape[0])
-        if instruments is None:
-            self._run(Phi, Y, errors)
-            return errors
-        Zeta = np.ascontiguousarray(instruments, dtype=float)
-        if Zeta.shape != Phi.shape:
-            raise ValueError(f'instruments must be an array of the regressors\' shape {Phi.shape}, got {Zeta.shape}')
-        _iv_kernel(self._theta, self._P, self._stats, Phi, Y, Zeta, self._lam, self._limit, self._enabled, errors)
+        self._run(Phi, Y, errors, None if instruments is None else check_instruments(instruments, Phi))
         return errors
 
-    def _run(self, Phi, Y, errors):
-        _rls_kernel(self._theta, self._P, self._stats, Phi, Y, self._lam, self._limit, self._enabled, errors)
+    def _run(self, Phi, Y, errors, Zeta=None):
+        _rls_kernel(self._theta, self._P, self._stats, Phi, Y, Phi if Zeta is None else Zeta, Zeta is not None,
+                    self._lam, self._limit, self._enabled, errors)
 
     @property
     def n(self):
