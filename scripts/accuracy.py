@@ -1,6 +1,6 @@
 """The README's identification accuracy table: errors of `emla identify` (greybox.identify) against the true
 parameters on closed-loop data the code has not seen (tests/datagen.py: 10 kHz, 5 mA current noise, 1 um
-position quantisation, unless noise-free). Run: .venv/bin/python scripts/accuracy.py (about a minute).
+position quantisation, unless noise-free). Run: .venv/bin/python scripts/accuracy.py (some seconds).
 """
 import dataclasses
 import sys
@@ -9,17 +9,13 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / 'tests'))
-from datagen import closed_loop, force_driven, random_parameters  # noqa: E402
+from datagen import TABLE2, closed_loop, force_driven, random_parameters  # noqa: E402
 
 from emla_control import scenarios  # noqa: E402
 from emla_identification.greybox import identify  # noqa: E402
 from emla_sim.parameters import TABLE1  # noqa: E402
 
 NAMES = ('resistance', 'inductance', 'emf_constant', 'mass', 'damping', 'load_force')
-TABLE2 = [dict(mass=m) for m in (0.036, 0.054, 0.072)] \
-    + [dict(load_force=f) for f in (10.0, -10.0, 20.0, -20.0)] \
-    + [dict(damping=b) for b in (3.0, 4.0)] \
-    + [dict(mass=0.072, load_force=f, damping=b) for f, b in ((20.0, 2.0), (-20.0, 4.0), (10.0, 3.0))]
 
 
 def errors(recording, truth):

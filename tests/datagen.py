@@ -17,6 +17,13 @@ KI = 2.0e5    # V/(m s)
 KD = 30.0     # V s/m
 
 
+# The paper's Table 2 simulation conditions (physics.md), as changes to Table 1.
+TABLE2 = [dict(mass=m) for m in (0.036, 0.054, 0.072)] \
+    + [dict(load_force=f) for f in (10.0, -10.0, 20.0, -20.0)] \
+    + [dict(damping=b) for b in (3.0, 4.0)] \
+    + [dict(mass=0.072, load_force=f, damping=b) for f, b in ((20.0, 2.0), (-20.0, 4.0), (10.0, 3.0))]
+
+
 def true_metadata(params):
     """Bag/recording metadata with the true parameters: {'true_resistance': '4.0', ...}."""
     return {f'true_{name}': repr(value) for name, value in params.physical().items()}

@@ -62,7 +62,7 @@ EFFECTS = ['coulomb_friction', 'return_spring', 'resistance_drift', 'inductance_
            'force_constant_variation', 'sensor_delay']
 
 
-@pytest.mark.parametrize('seed', [0, 1])
+@pytest.mark.parametrize('seed', [0, 1, 2])
 @pytest.mark.parametrize('effect', EFFECTS)
 def test_names_the_hidden_effect_and_halves_the_gap(effect, seed):
     recording, _ = recording_with(effect, seed)

@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 import pytest
-from datagen import closed_loop, force_driven, random_parameters
+from datagen import TABLE2, closed_loop, force_driven, random_parameters
 
 from emla_control import scenarios
 from emla_identification.greybox import identify
@@ -46,12 +46,6 @@ def test_noisy_closed_loop_random_parameters(seed):
     result = identify(recording)
     assert result.model == 'full' and result.samples == len(recording)
     assert_close(result.parameters, params.physical(), 0.02, 0.1)
-
-
-TABLE2 = [dict(mass=m) for m in (0.036, 0.054, 0.072)] \
-    + [dict(load_force=f) for f in (10.0, -10.0, 20.0, -20.0)] \
-    + [dict(damping=b) for b in (3.0, 4.0)] \
-    + [dict(mass=0.072, load_force=f, damping=b) for f, b in ((20.0, 2.0), (-20.0, 4.0), (10.0, 3.0))]
 
 
 @pytest.mark.parametrize('seed', [11, 12])
