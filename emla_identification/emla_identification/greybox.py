@@ -69,6 +69,25 @@ class LagMoments:
         self._tail = np.concatenate((self._tail, z[-HISTORY:]))[-HISTORY:]
 
 
+class RowMoments:
+    """The LagMoments a regression's noise model needs, kept beside its estimator: of its rows z = [phi, y] and,
+    if it is solved by instrumental variables, of its instruments. statistics() adds the estimator's state."""
+
+    def __init__(self, n, forgetting=1.0, instrumented=False):
+        self.rows = LagMoments(n + 1, forgetting)
+        self.instruments = LagMoments(n, forgetting) if instrumented else None
+
+    def update(self, z, zeta=None):
+        """Rows z (m x (n + 1)) and, if instrumented, their instruments zeta (m x n)."""
+        self.rows.update(z)
+        if self.instruments is not None:
+            self.instruments.update(zeta)
+
+    def statistics(self, theta, covariance):
+        return Statistics(theta, covariance, self.rows.moments.copy(), self.rows.weight, self.rows.forgetting,
+                          None if self.instruments is None else self.instruments.moments.copy())
+
+
 _TILE = 512  # rows per tile of _lag_products: a tile's columns stay in the first-level cache
 
 
@@ -327,20 +346,22 @@ def identify(recording, model=None, forgetting=1.0, *, initial_covariance=1e6, p
     report = progress or (lambda fraction: None)
     n, ts = len(recording), recording.sample_period
     every = max(1, (n - HISTORY) // points)
-    tracks, lags, instrument_lags = {}, {}, {}
+    trajectories = {}  # kind -> [Statistics after rows [0, end) for each end]
     for j, kind in enumerate(kinds):
         phi, y = rows(kind, recording.signals, ts)
         zeta = instruments(kind, recording.signals, ts)
         _check_excitation(phi.T @ phi, kind, source)
-        tracks[kind] = offline.trajectory(phi, y, every, instruments=zeta, forgetting=lam,
-                                          initial_covariance=initial_covariance)
-        ends = tracks[kind].samples
-        lags[kind] = _lag_trajectory(np.column_stack((phi, y)), ends, lam)
-        instrument_lags[kind] = [None] * len(ends) if zeta is None else \
-            [moments for moments, _ in _lag_trajectory(zeta, ends, lam)]
+        track = offline.trajectory(phi, y, every, instruments=zeta, forgetting=lam,
+                                   initial_covariance=initial_covariance)
+        ends = track.samples
+        moments, z, start = RowMoments(phi.shape[1], lam, zeta is not None), np.column_stack((phi, y)), 0
+        trajectories[kind] = []
+        for theta, covariance, end in zip(track.theta, track.covariance, ends):
+            moments.update(z[start:end], None if zeta is None else zeta[start:end])
+            trajectories[kind].append(moments.statistics(theta, covariance))
+            start = end
         report((j + 1) / (len(kinds) + 1))
-    snapshots = [{kind: Statistics(t.theta[j], t.covariance[j], *lags[kind][j], lam, instrument_lags[kind][j])
-                  for kind, t in tracks.items()} for j in range(len(ends))]
+    snapshots = [{kind: trajectory[j] for kind, trajectory in trajectories.items()} for j in range(len(ends))]
     return _result(model, snapshots, ends, recording, n, lam,
                    lambda j: report((len(kinds) + (j + 1) / len(ends)) / (len(kinds) + 1)))
 
@@ -364,17 +385,6 @@ def _result(model, snapshots, ends, recording, samples, forgetting, done=lambda 
     return GreyBoxResult(model=model, parameters={k: float(v) for k, v in zip(names, values[-1])},
                          std={k: float(s) for k, s in zip(names, stds[-1])}, covariance=covariance,
                          samples=samples, sample_period=ts, forgetting=forgetting, trajectory=trajectory)
-
-
-def _lag_trajectory(z, ends, forgetting):
-    """(LagMoments.moments, weight) after rows [0, end) for each end."""
-    moments = LagMoments(z.shape[1], forgetting)
-    states, start = [], 0
-    for end in ends:
-        moments.update(z[start:end])
-        states.append((moments.moments.copy(), moments.weight))
-        start = end
-    return states
 
 
 def _checked(recording, model, forgetting):

@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from .greybox import LagMoments, Statistics, physical, physical_values
+from .greybox import RowMoments, physical, physical_values
 from .regressors import COLUMNS, INSTRUMENTED, SIGNALS, regressions_for
 from .rls import RecursiveLeastSquares
 from .streaming import RowStream
@@ -45,9 +45,8 @@ class OnlineIdentifier:
         """Forget everything: back to the prior, no samples."""
         for rls in self._rls.values():
             rls.reset()
-        self._lags = {kind: LagMoments(rls.n + 1, rls.forgetting) for kind, rls in self._rls.items()}
-        self._instrument_lags = {kind: LagMoments(rls.n, rls.forgetting) for kind, rls in self._rls.items()
-                                 if kind in INSTRUMENTED}
+        self._moments = {kind: RowMoments(rls.n, rls.forgetting, kind in INSTRUMENTED)
+                         for kind, rls in self._rls.items()}
         self._stream.reset()
         self._residual_rms = math.nan
 
@@ -62,9 +61,7 @@ class OnlineIdentifier:
             z = np.column_stack((phi, y))
             skipped = ~np.isfinite(errors)  # by the recursion: no contribution, lags kept aligned
             z[skipped] = 0.0
-            self._lags[kind].update(z)
-            if zeta is not None:
-                self._instrument_lags[kind].update(np.where(skipped[:, None], 0.0, zeta))
+            self._moments[kind].update(z, None if zeta is None else np.where(skipped[:, None], 0.0, zeta))
             errors = errors[np.isfinite(errors)]  # the recursion skips non-finite samples
             if kind == 'electrical' and len(errors):
                 # a-priori current error over beta = voltage-equation error (V)
@@ -98,7 +95,4 @@ class OnlineIdentifier:
         return dict(zip(names, values.tolist()))
 
     def _statistics(self):
-        return {kind: Statistics(rls.theta, rls.covariance, self._lags[kind].moments, self._lags[kind].weight,
-                                 rls.forgetting, self._instrument_lags[kind].moments
-                                 if kind in self._instrument_lags else None)
-                for kind, rls in self._rls.items()}
+        return {kind: self._moments[kind].statistics(rls.theta, rls.covariance) for kind, rls in self._rls.items()}

@@ -2,7 +2,7 @@
 online.py) and the identification of records too long to hold in memory (identify_chunks).
 
 identify_chunks takes a record as consecutive parts (Recordings: emla_sim.bag.iter_chunks from a bag, split()
-of one in memory) and keeps per regression an offline.WeightedAccumulator and a greybox.LagMoments of its rows,
+of one in memory) and keeps per regression an offline.WeightedAccumulator and the greybox.RowMoments of its rows,
 and their plain Gram matrix for the excitation check: memory of one part and a few small matrices, whatever the
 record's length. The result is greybox.identify's on the whole record to rounding (the same least-squares
 states and moments, summed in other groupings); the convergence trajectory is sampled at part ends.
@@ -52,30 +52,25 @@ class _Regression:
 
     def __init__(self, kind, forgetting, initial_covariance):
         n = len(COLUMNS[kind])
-        self.least_squares = offline.WeightedAccumulator(n, instrumented=kind in INSTRUMENTED, forgetting=forgetting,
-                                                         initial_covariance=initial_covariance)
-        self.lags = greybox.LagMoments(n + 1, forgetting)
-        self.instrument_lags = greybox.LagMoments(n, forgetting) if kind in INSTRUMENTED else None
+        self.least_squares = offline.WeightedAccumulator(n, instrumented=kind in INSTRUMENTED,
+                                                         forgetting=forgetting, initial_covariance=initial_covariance)
+        self.moments = greybox.RowMoments(n, forgetting, kind in INSTRUMENTED)
         self._gram = None if forgetting == 1.0 else np.zeros((n, n))  # else the lag-0 moment is that sum
 
     def add(self, phi, y, zeta):
         z = np.column_stack((phi, y) if zeta is None else (phi, y, zeta))
         self.least_squares.add_stacked(z)
-        self.lags.update(z[:, :phi.shape[1] + 1])
-        if zeta is not None:
-            self.instrument_lags.update(zeta)
+        self.moments.update(z[:, :phi.shape[1] + 1], zeta)
         if self._gram is not None:
             self._gram += phi.T @ phi
 
     def gram(self):
         """sum of phi phi' over the rows, unweighted (for the excitation check)."""
-        return self.lags.moments[0, :-1, :-1] if self._gram is None else self._gram
+        return self.moments.rows.moments[0, :-1, :-1] if self._gram is None else self._gram
 
     def statistics(self):
         estimate = self.least_squares.estimate()
-        return greybox.Statistics(estimate.theta, estimate.covariance, self.lags.moments.copy(), self.lags.weight,
-                                  self.least_squares.forgetting,
-                                  None if self.instrument_lags is None else self.instrument_lags.moments.copy())
+        return self.moments.statistics(estimate.theta, estimate.covariance)
 
 
 def identify_chunks(chunks, model=None, forgetting=1.0, *, initial_covariance=1e6, points=200, progress=None):
