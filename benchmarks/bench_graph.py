@@ -10,7 +10,7 @@ from pathlib import Path
 import yaml
 
 from benchmarks.harness import Row
-from emla_control.launcher import domain_env, reserved_domain
+from emla_cli.launcher import domain_env, reserved_domain
 
 EMLA = str(Path(sys.executable).parent / 'emla')
 DURATION = 2.0    # s simulated in the launch

@@ -82,10 +82,10 @@ def _prepare():
     """The cached data, generated if missing (into a temporary directory renamed when complete)."""
     if CACHE.exists():
         return
-    from emla_sim.bag import write_recording
-    from emla_sim.parameters import TABLE1
+    from emla_core.bag import write_recording
+    from emla_core.parameters import TABLE1
     from emla_sim.plant import Plant
-    from emla_sim.recording import Recording
+    from emla_core.recording import Recording
     from emla_sim.sensor import Sensor, SensorConfig
 
     print(f'[bench] offline: generating {SAMPLES} samples into {CACHE} (once)', file=sys.stderr, flush=True)
@@ -124,8 +124,8 @@ def _work(mode, samples):
     from emla_identification.greybox import identify
     from emla_identification.online import OnlineIdentifier
     from emla_identification.streaming import identify_chunks, split
-    from emla_sim.bag import iter_chunks, read_bag
-    from emla_sim.recording import Recording
+    from emla_core.bag import iter_chunks, read_bag
+    from emla_core.recording import Recording
 
     bag = CACHE / f'bag-{samples}'
     identify_chunks(iter_chunks(CACHE / f'bag-{SMALL}', chunk_samples=5000), points=1)  # compile, load caches

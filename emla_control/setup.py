@@ -17,12 +17,11 @@ setup(
     zip_safe=False,
     maintainer='emla developers',
     maintainer_email='dev@emla.invalid',
-    description='Adaptive inverse-system control and the emla command line.',
+    description='Adaptive inverse-system control and its closed-loop scenarios.',
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
             'controller = emla_control.nodes.controller_node:main',
-            'emla = emla_control.cli:main',
         ],
     },
 )

@@ -23,7 +23,6 @@ setup(
         'console_scripts': [
             'plant = emla_sim.nodes.plant_node:main',
             'sensor = emla_sim.nodes.sensor_node:main',
-            'recorder = emla_sim.nodes.recorder_node:main',
         ],
     },
 )

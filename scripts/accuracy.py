@@ -13,7 +13,7 @@ from datagen import TABLE2, closed_loop, force_driven, random_parameters  # noqa
 
 from emla_control import scenarios  # noqa: E402
 from emla_identification.greybox import identify  # noqa: E402
-from emla_sim.parameters import TABLE1  # noqa: E402
+from emla_core.parameters import TABLE1  # noqa: E402
 
 NAMES = ('resistance', 'inductance', 'emf_constant', 'mass', 'damping', 'load_force')
 

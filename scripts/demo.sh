@@ -13,7 +13,7 @@ mkdir -p "$out"
 
 "$EMLA" launch default --duration "$DURATION" --bag "$out/bag" --json "$out/launch.json"
 "$EMLA" identify "$out/bag" --json "$out/identify.json" --plot "$out/identify.png"
-"$PY" -m emla_control.estimate_plot "$out/bag" "$out/identify.json" "$out/estimates.png"
+"$PY" -m emla_cli.estimate_plot "$out/bag" "$out/identify.json" "$out/estimates.png"
 
 "$PY" - "$out/launch.json" "$out/identify.json" <<'EOF'
 import json, sys

@@ -1,7 +1,7 @@
 """Fixtures shared by the test modules."""
 import pytest
 
-from emla_control.launcher import reserved_domain
+from emla_cli.launcher import reserved_domain
 from ros_isolation import isolated_env
 
 

@@ -9,9 +9,9 @@ import pytest
 from mcap_ros2.reader import read_ros2_messages
 from rosbags.highlevel import AnyReader
 
-from emla_sim.bag import BagWriter, read_bag, typestore, write_recording
-from emla_sim.errors import InputError
-from emla_sim.recording import Recording
+from emla_core.bag import BagWriter, read_bag, typestore, write_recording
+from emla_core.errors import InputError
+from emla_core.recording import Recording
 
 
 def recording(n=5000, period=1e-4):
@@ -48,12 +48,14 @@ def test_round_trip_and_peer_readers(tmp_path):
 KILLED_WRITER = r'''
 import sys, time
 import numpy as np
-from emla_sim.bag import BagWriter, SAMPLE_FRAME, sample_frame
+from emla_core.bag import BagWriter
+from emla_core.messages import frame_message
+from emla_core.topics import SAMPLE_FRAME
 with BagWriter(sys.argv[1], split_size=20000) as bag:
     bag.add_topic('/emla/current', SAMPLE_FRAME)
     for k in range(10**6):
         stamp = k * 10_000_000
-        bag.write_message('/emla/current', stamp, sample_frame(stamp, 1e-4, np.full(100, float(k))))
+        bag.write_message('/emla/current', stamp, frame_message(stamp, 1e-4, np.full(100, float(k))))
         if k == 200:
             print('ready', flush=True)
         time.sleep(0.0005)

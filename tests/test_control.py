@@ -17,9 +17,9 @@ from emla_control.loop import run_closed_loop
 from emla_control.reference import StrokeReference
 from emla_control.scenarios import tracking_metrics
 from emla_identification.online import OnlineIdentifier
-from emla_sim.parameters import TABLE1
+from emla_core.parameters import TABLE1
 from emla_sim.plant import Plant
-from emla_sim.recording import Recording
+from emla_core.recording import Recording
 from emla_sim.sensor import Sensor, SensorConfig
 
 P = TABLE1
@@ -134,7 +134,7 @@ def test_closed_loop_error_decays_as_the_placed_poles():
 # ---- the controller ----
 
 def _controller(**kw):
-    return InverseSystemController(P, sample_period=1e-4, **kw)
+    return InverseSystemController(P, control_period=1e-4, **kw)
 
 
 def test_guard_rejects_implausible_estimates_and_keeps_the_previous():
@@ -206,14 +206,14 @@ def test_an_identified_load_force_is_compensated():
 
 
 def test_control_period_can_be_a_multiple_of_the_sample_period():
-    controller = InverseSystemController(P, sample_period=2e-4, bandwidth=100.0)
+    controller = InverseSystemController(P, control_period=2e-4, bandwidth=100.0)
     result = run_closed_loop(Plant(P), controller, REF, REF.period)
     voltage = result.recording.signals['voltage']
     np.testing.assert_array_equal(voltage[0::2], voltage[1::2])
     error = result.truth['position'] - result.recording.signals['reference']
     assert np.sqrt(np.mean(error ** 2)) < 3e-6
     with pytest.raises(ValueError):
-        run_closed_loop(Plant(P), InverseSystemController(P, sample_period=1.5e-4), REF, 0.01)
+        run_closed_loop(Plant(P), InverseSystemController(P, control_period=1.5e-4), REF, 0.01)
 
 
 # ---- metrics ----

@@ -18,8 +18,8 @@ from emla_identification.discrepancy import CANDIDATES, Candidate, diagnose, reg
 from emla_identification.discrepancy.residuals import binned, cross_correlation, whiteness  # noqa: E402
 from emla_sim.effects import (CoulombFriction, ForceConstantVariation, InductanceSaturation,  # noqa: E402
                               ResistanceDrift, ReturnSpring)
-from emla_sim.errors import InputError  # noqa: E402
-from emla_sim.recording import Recording  # noqa: E402
+from emla_core.errors import InputError  # noqa: E402
+from emla_core.recording import Recording  # noqa: E402
 
 DURATION = 3.0
 

@@ -18,9 +18,10 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from datagen import closed_loop  # noqa: E402
 
-from emla_sim.bag import write_recording  # noqa: E402
+from emla_core.bag import write_recording  # noqa: E402
 from emla_sim.effects import CoulombFriction  # noqa: E402
-from emla_sim.recording import Recording, load, write_csv  # noqa: E402
+from emla_core.data import load  # noqa: E402
+from emla_core.recording import Recording, write_csv  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLE = REPO / 'bags' / 'example_discrepancy'
@@ -41,7 +42,7 @@ def write_example(path):
 
 def emla(*args):
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
-    return subprocess.run([sys.executable, '-m', 'emla_control.cli', *map(str, args)], capture_output=True,
+    return subprocess.run([sys.executable, '-m', 'emla_cli.cli', *map(str, args)], capture_output=True,
                           text=True, timeout=300, env=env)
 
 

@@ -15,9 +15,9 @@ from emla_identification.greybox import identify
 from emla_identification.online import OnlineIdentifier
 from emla_identification.regressors import emf_lag
 from emla_sim.effects import ParameterChange
-from emla_sim.errors import InputError
-from emla_sim.parameters import TABLE1
-from emla_sim.recording import Recording
+from emla_core.errors import InputError
+from emla_core.parameters import TABLE1
+from emla_core.recording import Recording
 
 
 def assert_close(parameters, truth, relative, load_force):

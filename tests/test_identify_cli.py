@@ -7,10 +7,10 @@ import pytest
 from datagen import closed_loop, force_driven
 from ros_isolation import VENV_BIN
 
-from emla_control.cli import main
-from emla_sim.bag import write_recording
-from emla_sim.parameters import TABLE1
-from emla_sim.recording import read_csv, write_csv
+from emla_cli.cli import main
+from emla_core.bag import write_recording
+from emla_core.parameters import TABLE1
+from emla_core.recording import read_csv, write_csv
 
 TRUTH = TABLE1.replace(load_force=5.0)
 GREYBOX_KEYS = {'model', 'samples', 'sample_period', 'parameters', 'std'}

@@ -9,11 +9,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 from mcap_ros2.reader import read_ros2_messages
 from rosbags.highlevel import AnyReader
 
 from emla_control import scenarios
-from emla_sim.bag import read_bag, typestore
+from emla_core.bag import read_bag, typestore
 from ros_isolation import VENV_BIN, processes
 
 pytestmark = pytest.mark.timeout(300)
@@ -157,3 +158,33 @@ def test_a_killed_recorder_stops_the_launch_and_leaves_a_readable_bag(tmp_path):
         assert sum(c.msgcount for c in reader.connections) > 0
     current = read_bag(bag).recording.signals['current']
     assert len(current) > 0 and np.all(np.isfinite(current))
+
+
+def bag_structure(bag):
+    """{topic: (type, offered QoS)} of the metadata, {topic: set of frame lengths}, /emla/parameters covariances."""
+    info = yaml.safe_load((Path(bag) / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    topics = {t['topic_metadata']['name']: (t['topic_metadata']['type'], t['topic_metadata']['offered_qos_profiles'])
+              for t in info['topics_with_message_count']}
+    lengths, covariances = {}, []
+    with AnyReader([Path(bag)], default_typestore=typestore()) as reader:
+        for connection, _, raw in reader.messages():
+            msg = reader.deserialize(raw, connection.msgtype)
+            if connection.msgtype == 'emla_msgs/msg/SampleFrame':
+                lengths.setdefault(connection.topic, set()).add(len(msg.data))
+            elif connection.topic == '/emla/parameters':
+                covariances.append(np.asarray(msg.covariance).reshape(6, 6))
+    return topics, lengths, covariances
+
+
+def test_a_simulated_bag_is_laid_out_like_a_launched_one(runs, tmp_path):
+    simulated = tmp_path / 'simulated'
+    subprocess.run([str(VENV_BIN / 'emla'), 'simulate', 'default', '--duration', str(DURATION), '--bag', str(simulated)],
+                   check=True, capture_output=True, timeout=120)
+    launched_topics, launched_lengths, launched_covariances = bag_structure(runs['summaries'][0]['bag'])
+    topics, lengths, covariances = bag_structure(simulated)
+    assert topics == launched_topics                     # names, types and QoS
+    assert lengths == launched_lengths and lengths['/emla/current'] == {1, 10}
+    assert len(covariances) == DURATION / 0.01
+    for covariance in (covariances[-1], launched_covariances[-1]):  # the full matrix, symmetric
+        assert np.all(np.isfinite(covariance)) and np.allclose(covariance, covariance.T)
+        assert np.all(np.diag(covariance) > 0)

@@ -14,10 +14,10 @@ from emla_msgs.msg import ParameterEstimate, SampleFrame
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 
-from emla_control import launcher
 from emla_control.nodes.controller_node import ControllerNode
 from emla_identification.nodes.identifier_node import IdentifierNode
-from emla_sim.nodes import common
+from emla_core import messages, topics
+from emla_core.nodes import common
 from emla_sim.nodes.plant_node import PlantNode
 from emla_sim.nodes.sensor_node import SensorNode
 from ros_isolation import REPO, VENV_BIN, isolated_env, processes
@@ -30,17 +30,17 @@ CONFIG = {'plant': REPO / 'emla_sim/config/plant.yaml', 'sensor': REPO / 'emla_s
           'controller': REPO / 'emla_control/config/controller.yaml'}
 NODE_CLASSES = {'plant': PlantNode, 'sensor': SensorNode, 'identifier': IdentifierNode, 'controller': ControllerNode}
 PERIODS, SAMPLES, MS = 300, 10, 1_000_000  # 0.3 s of 1 ms frames of 10 samples; ns per ms
-VOLTAGE_TOPICS = [common.PLANT_TOPICS['voltage'], common.MEASURED_TOPICS['voltage'], common.COMMAND_TOPIC,
-                  common.REFERENCE_TOPIC]
-STATE_TOPICS = [common.PLANT_TOPICS[n] for n in ('current', 'position')] + \
-               [common.MEASURED_TOPICS[n] for n in ('current', 'position')]
+VOLTAGE_TOPICS = [topics.PLANT_TOPICS['voltage'], topics.MEASURED_TOPICS['voltage'], topics.COMMAND_TOPIC,
+                  topics.REFERENCE_TOPIC]
+STATE_TOPICS = [topics.PLANT_TOPICS[n] for n in ('current', 'position')] + \
+               [topics.MEASURED_TOPICS[n] for n in ('current', 'position')]
 TRUTH = {'resistance': 4.0, 'inductance': 1.6e-3}
 RCLPY_PARAMETERS = {'use_sim_time', 'start_type_description_service'}  # every rclpy node declares them
 
 
 def ros_node():
     """An rclpy node and executor of this test process in the isolated domain of its node processes."""
-    return launcher.ros_node('test_nodes', domain=int(isolated_env()['ROS_DOMAIN_ID']))
+    return common.ros_node('test_nodes', domain=int(isolated_env()['ROS_DOMAIN_ID']))
 
 
 def spin_until(executor, condition, timeout, procs=()):
@@ -59,12 +59,12 @@ class Listener:
         self.frames = {topic: [] for topic in VOLTAGE_TOPICS + STATE_TOPICS}
         self.estimates, self.diagnostics, self.done = [], [], []
         self.subscriptions = [node.create_subscription(SampleFrame, topic, lambda msg, frames=frames: frames.append(
-            (common.stamp_to_ns(msg.header.stamp), msg.sample_period, common.frame_data(msg).copy())), common.FRAME_QOS)
+            (topics.stamp_to_ns(msg.header.stamp), msg.sample_period, messages.frame_data(msg).copy())), common.FRAME_QOS)
             for topic, frames in self.frames.items()]
         self.subscriptions += [
-            node.create_subscription(ParameterEstimate, common.ESTIMATE_TOPIC, self.estimates.append, 10),
-            node.create_subscription(DiagnosticArray, common.DIAGNOSTICS_TOPIC, self.diagnostics.append, 10)]
-        node.create_subscription(Time, common.DONE_TOPIC, self.done.append, common.LATCHED_QOS)
+            node.create_subscription(ParameterEstimate, topics.PARAMETERS_TOPIC, self.estimates.append, 10),
+            node.create_subscription(DiagnosticArray, topics.DIAGNOSTICS_TOPIC, self.diagnostics.append, 10)]
+        node.create_subscription(Time, topics.DONE_TOPIC, self.done.append, common.LATCHED_QOS)
 
     def matched(self, topics):
         """Whether the subscriptions to `topics` have matched a publisher."""
@@ -72,7 +72,7 @@ class Listener:
 
     def finished(self):
         return self.done and self.estimates and \
-            common.stamp_to_ns(self.estimates[-1].header.stamp) == common.stamp_to_ns(self.done[0])
+            topics.stamp_to_ns(self.estimates[-1].header.stamp) == topics.stamp_to_ns(self.done[0])
 
     def signal(self, topic):
         return np.concatenate([data for _, _, data in self.frames[topic]])
@@ -101,21 +101,21 @@ def run_graph(tmp_path):
     with ros_node() as (node, executor), processes() as start:
         listener = Listener(node)
         procs = {name: start([EMLA, 'run', name, '--params-file', str(CONFIG[name])]) for name in others}
-        outputs = [*common.MEASURED_TOPICS.values(), common.COMMAND_TOPIC, common.REFERENCE_TOPIC,
-                   common.ESTIMATE_TOPIC, common.DIAGNOSTICS_TOPIC]
+        outputs = [*topics.MEASURED_TOPICS.values(), topics.COMMAND_TOPIC, topics.REFERENCE_TOPIC,
+                   topics.PARAMETERS_TOPIC, topics.DIAGNOSTICS_TOPIC]
         spin_until(executor, lambda: listener.matched(outputs), 60, procs.values())
         procs['plant'] = start([EMLA, 'run', 'plant', '--params-file',
                                 params_file(tmp_path, 'plant', duration=PERIODS * 1e-3, start_subscribers=3)])
         spin_until(executor, listener.finished, 120, procs.values())
         wait_exit(procs['plant'])  # it ends by itself after the done signal
         late = []  # a late subscriber gets the latest estimate (transient local)
-        node.create_subscription(ParameterEstimate, common.ESTIMATE_TOPIC, late.append, common.LATCHED_QOS)
+        node.create_subscription(ParameterEstimate, topics.PARAMETERS_TOPIC, late.append, common.LATCHED_QOS)
         spin_until(executor, lambda: late, 10)
         for name in others:
             procs[name].send_signal(signal.SIGTERM)
         for name in others:
             wait_exit(procs[name])
-    assert common.stamp_to_ns(late[0].header.stamp) == PERIODS * MS and late[0].samples_used == PERIODS * SAMPLES
+    assert topics.stamp_to_ns(late[0].header.stamp) == PERIODS * MS and late[0].samples_used == PERIODS * SAMPLES
     return listener
 
 
@@ -131,24 +131,24 @@ def test_frames_of_every_topic_have_the_size_and_period_of_the_lockstep(runs):
         stamps = [stamp for stamp, _, _ in frames]
         assert {period for _, period, _ in frames} == {1e-4}, topic
         if topic in VOLTAGE_TOPICS:  # the values over [k Tc + j Ts, k Tc + (j+1) Ts)
-            controller = topic in (common.COMMAND_TOPIC, common.REFERENCE_TOPIC)  # also for the period after
+            controller = topic in (topics.COMMAND_TOPIC, topics.REFERENCE_TOPIC)  # also for the period after
             assert stamps == [k * MS for k in range(PERIODS + controller)], topic
             assert {len(data) for _, _, data in frames} == {SAMPLES}, topic
         else:  # the state at t = 0, then the states the intervals end on
             assert stamps == [0] + [k * MS + MS // 10 for k in range(PERIODS)], topic
             assert [len(data) for _, _, data in frames] == [1] + [SAMPLES] * PERIODS, topic
-    voltage = listener.signal(common.MEASURED_TOPICS['voltage'])
-    np.testing.assert_array_equal(voltage, listener.signal(common.PLANT_TOPICS['voltage']))
-    np.testing.assert_array_equal(voltage, listener.signal(common.COMMAND_TOPIC)[:-SAMPLES])
+    voltage = listener.signal(topics.MEASURED_TOPICS['voltage'])
+    np.testing.assert_array_equal(voltage, listener.signal(topics.PLANT_TOPICS['voltage']))
+    np.testing.assert_array_equal(voltage, listener.signal(topics.COMMAND_TOPIC)[:-SAMPLES])
     assert np.all(voltage.reshape(PERIODS, SAMPLES) == voltage[::SAMPLES, None])  # held over each period
 
 
 def test_the_loop_tracks_the_reference_and_the_identifier_sees_aligned_samples(runs):
     listener = runs[0]
-    position = listener.signal(common.PLANT_TOPICS['position'])[:-1]
-    error = position - listener.signal(common.REFERENCE_TOPIC)[:-SAMPLES]
+    position = listener.signal(topics.PLANT_TOPICS['position'])[:-1]
+    error = position - listener.signal(topics.REFERENCE_TOPIC)[:-SAMPLES]
     assert position.max() > 3.5e-3 and np.sqrt(np.mean(error ** 2)) < 1e-4
-    stamps = [common.stamp_to_ns(e.header.stamp) for e in listener.estimates]
+    stamps = [topics.stamp_to_ns(e.header.stamp) for e in listener.estimates]
     assert stamps == [k * 10 * MS for k in range(1, PERIODS // 10 + 1)]
     final = listener.estimates[-1]
     for name, value in TRUTH.items():  # misaligned samples would bias R and L by tens of per cent
@@ -177,16 +177,16 @@ def test_the_plant_starts_only_once_its_done_signal_has_a_reader(tmp_path):
     """A reader of /emla/plant/done found after the plant left would never get it: the plant waits for them."""
     with ros_node() as (node, executor), processes() as start:
         ticks = []
-        clock = node.create_subscription(Clock, common.CLOCK_TOPIC, ticks.append, common.CLOCK_QOS)
+        clock = node.create_subscription(Clock, topics.CLOCK_TOPIC, ticks.append, common.CLOCK_QOS)
         plant = start([EMLA, 'run', 'plant', '--params-file',
                        params_file(tmp_path, 'plant', start_subscribers=0, done_subscribers=1)])
         spin_until(executor, lambda: clock.get_publisher_count(), 30, [plant])
         settle = time.monotonic() + 1.0
         spin_until(executor, lambda: time.monotonic() > settle, 5, [plant])
         assert not ticks                                   # matched, but waiting for a reader of the done signal
-        node.create_subscription(Time, common.DONE_TOPIC, lambda msg: None, common.LATCHED_QOS)
+        node.create_subscription(Time, topics.DONE_TOPIC, lambda msg: None, common.LATCHED_QOS)
         spin_until(executor, lambda: ticks, 30, [plant])
-        assert common.stamp_to_ns(ticks[0].clock) == 0     # started: the state at t = 0 and /clock = 0
+        assert topics.stamp_to_ns(ticks[0].clock) == 0     # started: the state at t = 0 and /clock = 0
         plant.send_signal(signal.SIGTERM)
         wait_exit(plant)
 

@@ -9,7 +9,7 @@ from scipy.integrate import solve_ivp
 
 from emla_sim.effects import (EFFECTS, CoulombFriction, Effect, ForceConstantVariation, InductanceSaturation,
                               ParameterChange, ResistanceDrift, ReturnSpring, make_effect, register_effect)
-from emla_sim.parameters import PARAMETER_NAMES, TABLE1, ActuatorParameters
+from emla_core.parameters import PARAMETER_NAMES, TABLE1, ActuatorParameters
 from emla_sim.plant import Plant
 
 TS = 1e-4

@@ -5,7 +5,7 @@ import subprocess
 import pytest
 import yaml
 
-from emla_sim.bag import read_bag
+from emla_core.bag import read_bag
 from ros_isolation import VENV_BIN, processes
 
 pytestmark = pytest.mark.timeout(300)

@@ -8,7 +8,7 @@ import pytest
 import yaml
 from rosbags.highlevel import AnyReader
 
-from emla_sim.bag import read_bag, typestore
+from emla_core.bag import read_bag, typestore
 from ros_isolation import VENV_BIN, processes
 
 pytestmark = pytest.mark.timeout(120)
@@ -19,24 +19,26 @@ pytestmark = pytest.mark.timeout(120)
 PUBLISHER = r'''
 import sys, time
 import rclpy
-from emla_sim.nodes import common
-from emla_sim.nodes.recorder_node import TOPICS
+from emla_core import messages, topics
+from emla_core.messages import message_class
+from emla_core.nodes import common
+from emla_core.topics import RECORDED
 frames = int(sys.argv[1])
 rclpy.init()
 node = rclpy.create_node('test_publisher')
-every = {topic: node.create_publisher(cls, topic, common.FRAME_QOS if cls.__name__ == 'SampleFrame'
-                                      else common.LATCHED_QOS)
-         for topic, cls in TOPICS.items()}
-topics = ('/emla/plant/current', '/emla/voltage', '/emla/current', '/emla/position')
-publishers = {topic: every[topic] for topic in topics}
-truth = every[common.TRUE_PARAMETERS_TOPIC]
-while not every[common.START_TOPIC].get_subscription_count():
+every = {topic: node.create_publisher(message_class(msgtype), topic, common.qos_profile(kind))
+         for topic, (msgtype, kind) in RECORDED.items()}
+frame_topics = ('/emla/plant/current', '/emla/voltage', '/emla/current', '/emla/position')
+publishers = {topic: every[topic] for topic in frame_topics}
+truth = every[topics.TRUE_PARAMETERS_TOPIC]
+while not every[topics.START_TOPIC].get_subscription_count():
     time.sleep(0.01)
-truth.publish(common.estimate_message(0, {'resistance': 4.5, 'mass': 0.036}))
+truth.publish(messages.estimate_message(0, {'resistance': 4.5, 'mass': 0.036}))
 print('publishing', flush=True)
 start = time.monotonic()
 for k in range(frames):
-    common.publish_frames(publishers, k * 1_000_000, 1e-4, dict.fromkeys(topics, [float(k)] * 10))
+    for publisher in publishers.values():
+        publisher.publish(messages.frame_message(k * 1_000_000, 1e-4, [float(k)] * 10))
     time.sleep(max(0.0, start + (k + 1) * 1e-3 - time.monotonic()))
 for p in publishers.values():
     p.wait_for_all_acked(rclpy.duration.Duration(seconds=10))

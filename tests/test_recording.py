@@ -2,8 +2,9 @@
 import numpy as np
 import pytest
 
-from emla_sim.errors import InputError
-from emla_sim.recording import Recording, load, read_csv, write_csv
+from emla_core.errors import InputError
+from emla_core.data import load
+from emla_core.recording import Recording, read_csv, write_csv
 
 
 def test_csv_round_trip(tmp_path):
@@ -13,7 +14,7 @@ def test_csv_round_trip(tmp_path):
     back = load(tmp_path / 'a.csv')
     assert back.sample_period == pytest.approx(1e-4, rel=1e-9)
     assert back.start_time == pytest.approx(0.5)
-    assert back.kind() == 'electromechanical'
+    assert set(back.signals) == {'voltage', 'current', 'position'}
     for name in rec.signals:
         np.testing.assert_allclose(back.signals[name], rec.signals[name], rtol=1e-9, atol=1e-15)
 

@@ -7,18 +7,20 @@ import pytest
 from datagen import closed_loop, force_driven
 from mcap.writer import Writer
 
-from emla_control.cli import main
-from emla_control.commands import identify as identify_command
+from emla_cli.cli import main
+from emla_cli.commands import identify as identify_command
 from emla_identification import streaming
 from emla_identification.greybox import LagMoments, identify
 from emla_identification.offline import WeightedAccumulator, weighted_least_squares
 from emla_identification.online import OnlineIdentifier
 from emla_identification.regressors import HISTORY, instruments, rows
 from emla_identification.streaming import RowStream, identify_chunks
-from emla_sim.bag import SAMPLE_FRAME, BagWriter, iter_chunks, read_bag, sample_frame, typestore, write_recording
-from emla_sim.errors import InputError
-from emla_sim.parameters import TABLE1
-from emla_sim.recording import Recording, read_csv, write_csv
+from emla_core.bag import BagWriter, iter_chunks, read_bag, typestore, write_recording
+from emla_core.messages import frame_message
+from emla_core.topics import SAMPLE_FRAME
+from emla_core.errors import InputError
+from emla_core.parameters import TABLE1
+from emla_core.recording import Recording, read_csv, write_csv
 
 UNEVEN = (1, 7, 1000, 3, 4096, 250)
 
@@ -168,7 +170,7 @@ def staggered_bag(path, n=3000, frame=10, split_size=2 * 2**20):
                 for a, b in frames:
                     if k <= a < k + frame:
                         at = stamp + round(a * ts * 1e9)
-                        bag.write_message(f'/emla/{name}', at, sample_frame(at, ts, data[name][a:b], 'frame'))
+                        bag.write_message(f'/emla/{name}', at, frame_message(at, ts, data[name][a:b], 'frame'))
     return path
 
 
@@ -196,7 +198,7 @@ def test_bag_parts_report_gaps_as_read_bag_does(tmp_path):
     with BagWriter(bag) as writer:
         writer.add_topic('/emla/current', SAMPLE_FRAME)
         for k in (0, 1, 3):
-            writer.write_message('/emla/current', k * 10**6, sample_frame(k * 10**6, 1e-4, np.zeros(10)))
+            writer.write_message('/emla/current', k * 10**6, frame_message(k * 10**6, 1e-4, np.zeros(10)))
     with pytest.raises(InputError) as whole:
         read_bag(bag)
     with pytest.raises(InputError) as streamed:
@@ -213,7 +215,7 @@ def test_a_bare_mcap_without_chunks_is_read_whole(tmp_path):
         schema = writer.register_schema(name=SAMPLE_FRAME, encoding='ros2msg', data=msgdef.encode())
         channel = writer.register_channel(topic='/emla/current', message_encoding='cdr', schema_id=schema)
         for k in range(5):
-            frame = sample_frame(k * 10**6, 1e-4, np.full(10, float(k)))
+            frame = frame_message(k * 10**6, 1e-4, np.full(10, float(k)))
             writer.add_message(channel, log_time=k * 10**6, publish_time=k * 10**6,
                                data=bytes(typestore().serialize_cdr(frame, SAMPLE_FRAME)))
         writer.finish()

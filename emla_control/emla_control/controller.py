@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from emla_sim.parameters import ActuatorParameters, PARAMETER_NAMES
+from emla_core.parameters import ActuatorParameters, PARAMETER_NAMES
 
 from . import inverse
 
@@ -31,28 +31,28 @@ class InverseSystemController:
     """Adaptive inverse-system position controller of an EMLA (SI units; bandwidth in Hz).
 
     params: the initial model (ActuatorParameters). Call `step` once per control interval of
-    `sample_period` s with the sampled current and position and the reference (s, s', s'', s''') at the
+    `control_period` s with the sampled current and position and the reference (s, s', s'', s''') at the
     interval's midpoint (`midpoint_times`); it returns the voltage to hold over the interval, within
     +-supply_voltage. `update_parameters` offers it new identified parameters.
     """
 
-    def __init__(self, params, *, bandwidth=DEFAULT_BANDWIDTH, damping=DEFAULT_DAMPING, sample_period=1e-4,
+    def __init__(self, params, *, bandwidth=DEFAULT_BANDWIDTH, damping=DEFAULT_DAMPING, control_period=1e-4,
                  supply_voltage=24.0, observer_bandwidth=DEFAULT_OBSERVER_BANDWIDTH,
                  min_samples=DEFAULT_MIN_SAMPLES, max_jump=DEFAULT_MAX_JUMP):
-        if not (math.isfinite(sample_period) and sample_period > 0.0):
-            raise ValueError(f'sample_period must be positive, got {sample_period!r}')
+        if not (math.isfinite(control_period) and control_period > 0.0):
+            raise ValueError(f'control_period must be positive, got {control_period!r}')
         if not (math.isfinite(supply_voltage) and supply_voltage > 0.0):
             raise ValueError(f'supply_voltage must be positive, got {supply_voltage!r}')
         if not max_jump > 1.0:
             raise ValueError(f'max_jump must exceed 1, got {max_jump!r}')
-        self.sample_period = float(sample_period)
+        self.control_period = float(control_period)
         self.supply_voltage = float(supply_voltage)
         self.bandwidth, self.damping = float(bandwidth), float(damping)
         self.min_samples, self.max_jump = min_samples, float(max_jump)
         self._c = np.empty(inverse.N_COEFFICIENTS)
         self._c[[inverse.K0, inverse.K1, inverse.K2]] = inverse.feedback_gains(bandwidth, damping)
-        self._c[[inverse.L1, inverse.L2]] = inverse.observer_gains(observer_bandwidth, sample_period)
-        self._c[inverse.TS] = self.sample_period
+        self._c[[inverse.L1, inverse.L2]] = inverse.observer_gains(observer_bandwidth, control_period)
+        self._c[inverse.TS] = self.control_period
         self._c[inverse.SUPPLY] = self.supply_voltage
         self._set_parameters(params.physical())
         self._z = np.zeros(2)
@@ -74,7 +74,7 @@ class InverseSystemController:
 
     def midpoint_times(self, times):
         """Where to evaluate the reference for control intervals starting at `times`."""
-        return np.asarray(times, dtype=float) + 0.5 * self.sample_period
+        return np.asarray(times, dtype=float) + 0.5 * self.control_period
 
     def step(self, current, position, reference):
         """The voltage for the coming interval; reference = (s, s', s'', s''') at its midpoint."""

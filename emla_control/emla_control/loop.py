@@ -13,8 +13,8 @@ import dataclasses
 
 import numpy as np
 
-from emla_sim.parameters import PARAMETER_NAMES
-from emla_sim.recording import Recording
+from emla_core.parameters import PARAMETER_NAMES
+from emla_core.recording import Recording
 from emla_sim.sensor import Sensor
 
 FRAME_SAMPLES = 500  # 50 ms at 10 kHz: the identifier's and the parameter updates' rhythm
@@ -26,7 +26,8 @@ class LoopResult:
 
     recording: voltage (as commanded), current and position (as measured), reference, at the sample times.
     truth: the plant's true current, position and velocity at the same times (for evaluation).
-    frame_times: end time of each frame; estimates / std: the identifier's (NaN without one);
+    frame_times: end time of each frame; estimates / std: the identifier's (NaN without one), covariance: its
+    (names, matrix) per frame (empty without one);
     model: the parameters the controller used in each frame; true_parameters: the plant's at each frame end.
     """
     recording: Recording
@@ -34,6 +35,7 @@ class LoopResult:
     frame_times: np.ndarray
     estimates: dict
     std: dict
+    covariance: list
     model: dict
     true_parameters: dict
     accepted: int
@@ -45,14 +47,14 @@ def run_closed_loop(plant, controller, reference, duration, *, sensor=None, iden
     """Run the loop from the plant's present state for `duration` s; returns a LoopResult.
 
     sensor: emla_sim Sensor (default: 10 kHz, 5 mA, 1 um, seed 0); its sample period is the loop's.
-    identifier: e.g. OnlineIdentifier with update(voltage, current, position), estimate() -> (params, std)
-    and samples; with adapt=False it still runs, but the controller keeps its parameters.
+    identifier: e.g. OnlineIdentifier with update(voltage, current, position), full_estimate() -> (params, std,
+    (names, covariance)) and samples; with adapt=False it still runs, but the controller keeps its parameters.
     """
     sensor = sensor or Sensor()
     ts = sensor.config.sample_period
-    decimation = int(round(controller.sample_period / ts))
-    if decimation < 1 or abs(decimation * ts - controller.sample_period) > 1e-9 * ts:
-        raise ValueError(f'the control period {controller.sample_period} s must be a multiple of the sample '
+    decimation = int(round(controller.control_period / ts))
+    if decimation < 1 or abs(decimation * ts - controller.control_period) > 1e-9 * ts:
+        raise ValueError(f'the control period {controller.control_period} s must be a multiple of the sample '
                          f'period {ts} s')
     if frame_samples % decimation:
         raise ValueError(f'frame_samples ({frame_samples}) must be a multiple of the decimation ({decimation})')
@@ -63,6 +65,7 @@ def run_closed_loop(plant, controller, reference, duration, *, sensor=None, iden
     frames = range(0, n, frame_samples)
     log = {key: {name: np.full(len(frames), np.nan) for name in PARAMETER_NAMES}
            for key in ('estimates', 'std', 'model', 'true_parameters')}
+    covariance = []
     controller.reset(plant.position)
     # the reference for every control interval at once (vectorised); row j = (s, s', s'', s''')
     references = np.column_stack(reference(controller.midpoint_times(t0 + ts * np.arange(0, n, decimation))))
@@ -74,7 +77,8 @@ def run_closed_loop(plant, controller, reference, duration, *, sensor=None, iden
             (signals if store == 'signals' else truth)[name][start:stop] = values
         if identifier is not None:
             identifier.update(*(signals[name][start:stop] for name in ('voltage', 'current', 'position')))
-            estimate, std = identifier.estimate()
+            estimate, std, named_covariance = identifier.full_estimate()
+            covariance.append(named_covariance)
             _log_values(log['estimates'], f, estimate)
             _log_values(log['std'], f, std)
             if adapt:
@@ -84,7 +88,7 @@ def run_closed_loop(plant, controller, reference, duration, *, sensor=None, iden
     signals['reference'] = reference(t0 + ts * np.arange(n))[0]
     return LoopResult(recording=Recording(sample_period=ts, signals=signals, start_time=t0, source='closed loop'),
                       truth=truth, frame_times=t0 + ts * np.minimum(np.array(frames) + frame_samples, n),
-                      accepted=controller.accepted, rejected=controller.rejected, **log)
+                      covariance=covariance, accepted=controller.accepted, rejected=controller.rejected, **log)
 
 
 _FRAME_COLUMNS = (('truth', 'current'), ('truth', 'position'), ('truth', 'velocity'),

@@ -17,8 +17,8 @@ import numpy as np
 
 from emla_identification.online import OnlineIdentifier
 from emla_sim.effects import ParameterChange, ResistanceDrift
-from emla_sim.errors import InputError
-from emla_sim.parameters import TABLE1, ActuatorParameters
+from emla_core.errors import InputError
+from emla_core.parameters import TABLE1, ActuatorParameters
 from emla_sim.plant import Plant
 from emla_sim.sensor import Sensor, SensorConfig
 
@@ -63,19 +63,27 @@ class Scenario:
 
     def controller(self):
         return InverseSystemController(self.params, bandwidth=self.bandwidth, damping=self.damping,
-                                       sample_period=self.sample_period,
+                                       control_period=self.sample_period,
                                        supply_voltage=self.params.supply_voltage)
 
     def identifier(self):
         return OnlineIdentifier(self.sample_period, 'full', memory_time=self.memory_time)
 
-    def run_case(self, case, duration=None):
-        """The LoopResult of one case (a key of `cases`)."""
+    @property
+    def graph_case(self):
+        """The case the ROS graph (`emla launch`) and `emla simulate` run: the adaptive controller, on the
+        changed plant if there is one."""
+        adaptive = [case for case, (_, adapt) in self.cases.items() if adapt]
+        return max(adaptive, key=lambda case: self.cases[case][0])
+
+    def run_case(self, case, duration=None, frame_samples=None):
+        """The LoopResult of one case (a key of `cases`), over `duration` s (default: the scenario's), with the
+        identifier and the adaptation every `frame_samples` samples (default: the scenario's)."""
         changed, adapt = self.cases[case]
         return run_closed_loop(self.plant(changed), self.controller(), self.reference,
                                self.duration if duration is None else duration, sensor=self.sensor(),
                                identifier=self.identifier() if adapt else None, adapt=adapt,
-                               frame_samples=self.frame_samples)
+                               frame_samples=frame_samples or self.frame_samples)
 
 
 @dataclasses.dataclass

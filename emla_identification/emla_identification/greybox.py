@@ -23,8 +23,8 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from emla_sim.errors import InputError
-from emla_sim.parameters import PARAMETER_NAMES
+from emla_core.errors import InputError
+from emla_core.parameters import PARAMETER_NAMES
 
 from . import offline
 from .regressors import (COLUMNS, HISTORY, SIGNALS, default_model, emf_lag, instruments, noise_stencils,

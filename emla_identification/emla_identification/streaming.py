@@ -1,7 +1,7 @@
 """Samples into the grey-box regressions part by part: the rows of consecutive frames (RowStream, also behind
 online.py) and the identification of records too long to hold in memory (identify_chunks).
 
-identify_chunks takes a record as consecutive parts (Recordings: emla_sim.bag.iter_chunks from a bag, split()
+identify_chunks takes a record as consecutive parts (Recordings: emla_core.bag.iter_chunks from a bag, split()
 of one in memory) and keeps per regression an offline.WeightedAccumulator and the greybox.RowMoments of its rows,
 and their plain Gram matrix for the excitation check: memory of one part and a few small matrices, whatever the
 record's length. The result is greybox.identify's on the whole record to rounding (the same least-squares
@@ -11,7 +11,7 @@ import itertools
 
 import numpy as np
 
-from emla_sim.recording import Recording
+from emla_core.recording import Recording
 
 from . import greybox, offline
 from .regressors import COLUMNS, HISTORY, INSTRUMENTED, SIGNALS, instruments, rows

@@ -23,7 +23,7 @@ from typing import ClassVar
 import numba
 import numpy as np
 
-from .parameters import PARAMETER_NAMES
+from emla_core.parameters import PARAMETER_NAMES
 
 AMBIENT_TEMPERATURE = 20.0  # deg C; the coil temperature when no thermal model is active
 

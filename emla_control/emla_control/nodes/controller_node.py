@@ -3,7 +3,7 @@
 From the last sample of each measured state frame (time t) it computes the voltage held over the control
 period starting at t and publishes it (stamp t) with the stroke reference it tracks there. Adaptive: at each
 t that is a positive multiple of `adaptation_period` it first waits for the estimate stamped t (see
-emla_sim.nodes.common) and offers it to the controller's guard.
+emla_core.nodes.common) and offers it to the controller's guard.
 """
 import math
 import sys
@@ -13,8 +13,9 @@ from emla_msgs.msg import ParameterEstimate
 
 from emla_control import controller as law
 from emla_control.reference import StrokeReference
-from emla_sim.nodes import common
-from emla_sim.parameters import ActuatorParameters
+from emla_core import messages, topics
+from emla_core.nodes import common
+from emla_core.parameters import ActuatorParameters
 
 BLOCK = 100  # control periods of reference evaluated at once
 # Closed-loop bandwidth for the default 1 ms control period, where it tracks best (12 um RMS on the default
@@ -23,7 +24,7 @@ BANDWIDTH = 150.0  # Hz
 
 SPECS = [
     common.Spec('sample_period', 1e-4, 'sample period Ts, s', 1e-6, 1e-2),
-    common.Spec('control_period', 1e-3, 'control period Tc (a whole multiple of Ts), s', 1e-6, 1.0),
+    common.Spec('control_period', topics.CONTROL_PERIOD, 'control period Tc (a whole multiple of Ts), s', 1e-6, 1.0),
     common.Spec('bandwidth', BANDWIDTH, 'closed-loop bandwidth, Hz', 0.1, 1e4),
     common.Spec('damping_ratio', law.DEFAULT_DAMPING, 'closed-loop damping ratio, 1', 0.05, 10.0),
     common.Spec('observer_bandwidth', law.DEFAULT_OBSERVER_BANDWIDTH, 'velocity observer bandwidth, Hz', 0.1, 1e5),
@@ -32,7 +33,7 @@ SPECS = [
     common.Spec('transition', StrokeReference.transition, 'reference move duration (<= half a period), s',
                 1e-5, 1e3),
     common.Spec('adaptive', True, 'take the identifier estimates (true) or keep the initial model (false)'),
-    common.Spec('adaptation_period', 0.01,
+    common.Spec('adaptation_period', topics.ESTIMATE_PERIOD,
                 "take an estimate at multiples of this (a multiple of the identifier's publish_period), s",
                 1e-6, 1e6),
     common.Spec('min_samples', law.DEFAULT_MIN_SAMPLES, 'reject estimates from fewer samples, samples',
@@ -51,25 +52,25 @@ class ControllerNode(common.EmlaNode):
         p = common.declare(self, SPECS)
         self.samples = common.period_samples(p.sample_period, p.control_period)
         self.sample_period = p.sample_period
-        self.step_ns = common.to_ns(p.sample_period)
+        self.step_ns = topics.to_ns(p.sample_period)
         model = ActuatorParameters(**{name: getattr(p, name) for name in common.ACTUATOR_FIELDS})
         self.controller = law.InverseSystemController(
-            model, bandwidth=p.bandwidth, damping=p.damping_ratio, sample_period=p.control_period,
+            model, bandwidth=p.bandwidth, damping=p.damping_ratio, control_period=p.control_period,
             supply_voltage=model.supply_voltage, observer_bandwidth=p.observer_bandwidth,
             min_samples=p.min_samples, max_jump=p.max_jump)
         self.reference = StrokeReference(p.stroke, p.reference_period, p.transition)
         self.period_ns = self.samples * self.step_ns
         self.block = (None, None, None)  # (first period, references at the midpoints, reference samples)
-        self.adaptation_ns = common.to_ns(p.adaptation_period) if p.adaptive else None
+        self.adaptation_ns = topics.to_ns(p.adaptation_period) if p.adaptive else None
         self.state = None  # (t_ns, current, position): the latest measured sample, not yet acted on
         self.estimates = {}  # stamp -> ParameterEstimate
         self.started = False
-        self.command = common.frame_publishers(self, {'voltage': common.COMMAND_TOPIC,
-                                                      'reference': common.REFERENCE_TOPIC})
-        self.states = common.FrameSets(self, {name: common.MEASURED_TOPICS[name] for name in ('current', 'position')},
+        self.command = common.frame_publishers(self, {'voltage': topics.COMMAND_TOPIC,
+                                                      'reference': topics.REFERENCE_TOPIC})
+        self.states = common.FrameSets(self, {name: topics.MEASURED_TOPICS[name] for name in ('current', 'position')},
                                        self.on_states, p.sample_period)
         if p.adaptive:
-            self.create_subscription(ParameterEstimate, common.ESTIMATE_TOPIC, self.on_estimate, common.LATCHED_QOS)
+            self.create_subscription(ParameterEstimate, topics.PARAMETERS_TOPIC, self.on_estimate, common.LATCHED_QOS)
 
     def on_states(self, stamp, sample_period, frames):
         t = stamp + (len(frames['position']) - 1) * self.step_ns
@@ -77,7 +78,7 @@ class ControllerNode(common.EmlaNode):
         self.act()
 
     def on_estimate(self, msg):
-        self.estimates[common.stamp_to_ns(msg.header.stamp)] = msg
+        self.estimates[topics.stamp_to_ns(msg.header.stamp)] = msg
         self.act()
 
     def act(self):
@@ -88,7 +89,7 @@ class ControllerNode(common.EmlaNode):
             if t not in self.estimates:
                 return  # wait for the estimate due now
             msg = self.estimates[t]
-            values = {k: v for k, v in common.estimate_values(msg).items() if math.isfinite(v)}
+            values = {k: v for k, v in messages.estimate_values(msg).items() if math.isfinite(v)}
             self.controller.update_parameters(values, msg.samples_used)
         self.estimates = {stamp: msg for stamp, msg in self.estimates.items() if stamp > t}
         self.state = None
@@ -97,8 +98,8 @@ class ControllerNode(common.EmlaNode):
             self.started = True
         midpoint, samples = self.references(t // self.period_ns)
         voltage = self.controller.step(current, position, midpoint)
-        self.command['voltage'].publish(common.frame_message(t, self.sample_period, np.full(self.samples, voltage)))
-        self.command['reference'].publish(common.frame_message(t, self.sample_period, samples))
+        self.command['voltage'].publish(messages.frame_message(t, self.sample_period, np.full(self.samples, voltage)))
+        self.command['reference'].publish(messages.frame_message(t, self.sample_period, samples))
 
     def references(self, period):
         """The reference (s, s', s'', s''') at the period's midpoint and its samples over the period.

@@ -9,7 +9,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from emla_sim.errors import InputError
+from emla_core.errors import InputError
 from emla_identification.regressors import HISTORY, default_model, regressions_for
 
 MAX_DELAY = 8          # samples a sensor delay may have; the last MAX_DELAY samples are kept for re-alignment

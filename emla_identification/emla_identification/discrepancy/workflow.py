@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
-from emla_sim.errors import InputError
+from emla_core.errors import InputError
 
 from .candidates import library
 from .data import Data, regression_rows

@@ -2,7 +2,7 @@
 
 Publishes /emla/parameters (latched) at every multiple of `publish_period` that ends a control period,
 stamped with the end of the data used, and a final estimate at the end time /emla/plant/done announces
-(see emla_sim.nodes.common); /diagnostics with each estimate.
+(see emla_core.nodes.common); /diagnostics with each estimate.
 """
 import math
 import sys
@@ -15,8 +15,9 @@ from std_msgs.msg import Header
 
 from emla_identification.greybox import MODEL_PARAMETERS
 from emla_identification.online import OnlineIdentifier
-from emla_sim.errors import InputError
-from emla_sim.nodes import common
+from emla_core.errors import InputError
+from emla_core import messages, topics
+from emla_core.nodes import common
 
 SPECS = [
     common.Spec('sample_period', 1e-4, 'sample period Ts of the frames, s', 1e-6, 1e-2),
@@ -25,7 +26,7 @@ SPECS = [
     common.Spec('memory_time', 0.0,
                 'memory time constant tau instead of a forgetting factor, lambda = 1 - Ts/tau (0 = unused), s',
                 0.0, 1e6),
-    common.Spec('publish_period', 0.01, 'publish an estimate at multiples of this simulated time, s', 1e-6, 1e6),
+    common.Spec('publish_period', topics.ESTIMATE_PERIOD, 'publish an estimate at multiples of this simulated time, s', 1e-6, 1e6),
 ]
 
 
@@ -55,16 +56,16 @@ class IdentifierNode(common.EmlaNode):
                         memory_time=p.memory_time or None)
         self.identifier = OnlineIdentifier(**settings)
         warm_up(OnlineIdentifier(**settings))
-        self.step = common.to_ns(p.sample_period)
-        self.publish_step = common.to_ns(p.publish_period)
+        self.step = topics.to_ns(p.sample_period)
+        self.publish_step = topics.to_ns(p.publish_period)
         self.covered = 0  # ns: the estimator has used every voltage interval before this time
         self.published = None  # stamp of the latest estimate
         self.end = None  # end of the run, from /emla/plant/done
-        self.estimates = self.create_publisher(ParameterEstimate, common.ESTIMATE_TOPIC, common.LATCHED_QOS)
-        self.diagnostics = self.create_publisher(DiagnosticArray, common.DIAGNOSTICS_TOPIC, common.DIAGNOSTICS_QOS)
-        self.samples = common.AlignedSamples(self, common.MEASURED_TOPICS, self.on_samples, p.sample_period,
+        self.estimates = self.create_publisher(ParameterEstimate, topics.PARAMETERS_TOPIC, common.LATCHED_QOS)
+        self.diagnostics = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS_TOPIC, common.DIAGNOSTICS_QOS)
+        self.samples = common.AlignedSamples(self, topics.MEASURED_TOPICS, self.on_samples, p.sample_period,
                                              self.publish_step)
-        self.create_subscription(Time, common.DONE_TOPIC, self.on_done, common.LATCHED_QOS)
+        self.create_subscription(Time, topics.DONE_TOPIC, self.on_done, common.LATCHED_QOS)
 
     def on_samples(self, start, samples):
         self.identifier.update(samples['voltage'], samples['current'], samples['position'])
@@ -73,14 +74,14 @@ class IdentifierNode(common.EmlaNode):
             self.publish()
 
     def on_done(self, msg):
-        self.end = common.stamp_to_ns(msg)
+        self.end = topics.stamp_to_ns(msg)
         if self.covered == self.end and self.published != self.end:
             self.publish()
 
     def publish(self):
         values, std, (names, covariance) = estimate(self.identifier)
-        stamp = common.time_msg(self.covered)
-        self.estimates.publish(common.estimate_message(self.covered, values, std, (names, covariance),
+        stamp = messages.time_msg(self.covered)
+        self.estimates.publish(messages.estimate_message(self.covered, values, std, (names, covariance),
                                                        self.identifier.samples, self.identifier.residual_rms))
         self.published = self.covered
         identified = sum(math.isfinite(v) for v in values.values())

@@ -12,14 +12,15 @@ from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 
 from emla_sim.effects import EFFECTS, ParameterChange, make_effect
-from emla_sim.errors import InputError
-from emla_sim.nodes import common
-from emla_sim.parameters import PARAMETER_NAMES, ActuatorParameters
+from emla_core.errors import InputError
+from emla_core import messages, topics
+from emla_core.nodes import common
+from emla_core.parameters import PARAMETER_NAMES, ActuatorParameters
 from emla_sim.plant import Plant
 
 SPECS = [
     common.Spec('sample_period', 1e-4, 'sample period Ts, s', 1e-6, 1e-2),
-    common.Spec('control_period', 1e-3, 'control period Tc (a whole multiple of Ts; samples per frame = Tc/Ts), s',
+    common.Spec('control_period', topics.CONTROL_PERIOD, 'control period Tc (a whole multiple of Ts; samples per frame = Tc/Ts), s',
                 1e-6, 1.0),
     common.Spec('duration', 1.0, 'simulated time to run, then publish done and exit; 0 = until stopped, s',
                 0.0, 1e6),
@@ -32,7 +33,7 @@ SPECS = [
     common.Spec('change_parameters', Parameter.Type.STRING_ARRAY,
                 f'parameter each change scales, of {PARAMETER_NAMES}'),
     common.Spec('change_factors', Parameter.Type.DOUBLE_ARRAY, 'factor each change multiplies it by, 1'),
-    common.Spec('parameters_period', 0.01,
+    common.Spec('parameters_period', topics.ESTIMATE_PERIOD,
                 'publish the true parameters at multiples of this (and after each change), s', 1e-6, 1e6),
     common.Spec('start_subscribers', 2, 'start once /emla/position has this many subscriptions, 1', 0, 1000),
     common.Spec('done_subscribers', 1, 'and /emla/plant/done this many (the plant leaves once they acknowledged '
@@ -67,26 +68,26 @@ class PlantNode(common.EmlaNode):
         super().__init__()
         p = common.declare(self, SPECS)
         self.samples = common.period_samples(p.sample_period, p.control_period)
-        self.step = common.to_ns(p.sample_period)
+        self.step = topics.to_ns(p.sample_period)
         self.periods = round(p.duration / p.control_period) if p.duration else None
         if self.periods == 0:
             raise InputError(f'duration ({p.duration} s) is shorter than one control period')
-        self.awaited_readers = {common.START_TOPIC: p.start_subscribers, common.DONE_TOPIC: p.done_subscribers}
+        self.awaited_readers = {topics.START_TOPIC: p.start_subscribers, topics.DONE_TOPIC: p.done_subscribers}
         self.changes = changes_from(p.change_times, p.change_parameters, p.change_factors)
         params = ActuatorParameters(**{name: getattr(p, name) for name in common.ACTUATOR_FIELDS})
         self.supply = params.supply_voltage
         self.plant = Plant(params, effects_from(p.effects, p.effect_parameters), self.changes,
                            initial_state=(0.0, p.initial_position, 0.0))
-        self.parameters_step = common.to_ns(p.parameters_period)
+        self.parameters_step = topics.to_ns(p.parameters_period)
         self.sample_period = p.sample_period
         self.period = 0
         self.wall_start = None  # wall clock at the first command (for the realtime factor)
         self.commands = {}  # stamp -> voltages
-        self.frames = common.frame_publishers(self, common.PLANT_TOPICS)
-        self.truth = self.create_publisher(ParameterEstimate, common.TRUE_PARAMETERS_TOPIC, common.LATCHED_QOS)
-        self.done = self.create_publisher(Time, common.DONE_TOPIC, common.LATCHED_QOS)
-        self.clock = self.create_publisher(Clock, common.CLOCK_TOPIC, common.CLOCK_QOS)
-        self.create_subscription(SampleFrame, common.COMMAND_TOPIC, self.on_command, common.FRAME_QOS)
+        self.frames = common.frame_publishers(self, topics.PLANT_TOPICS)
+        self.truth = self.create_publisher(ParameterEstimate, topics.TRUE_PARAMETERS_TOPIC, common.LATCHED_QOS)
+        self.done = self.create_publisher(Time, topics.DONE_TOPIC, common.LATCHED_QOS)
+        self.clock = self.create_publisher(Clock, topics.CLOCK_TOPIC, common.CLOCK_QOS)
+        self.create_subscription(SampleFrame, topics.COMMAND_TOPIC, self.on_command, common.FRAME_QOS)
         self.barrier = self.create_timer(0.02, self.try_start)
         self.get_logger().info('waiting for ' + ' and '.join(f'{n} subscription(s) of {topic}'
                                                              for topic, n in self.awaited_readers.items()))
@@ -102,18 +103,18 @@ class PlantNode(common.EmlaNode):
         self.get_logger().info('started')
         state = {'current': [self.plant.current], 'position': [self.plant.position]}
         for name in state:
-            self.frames[name].publish(common.frame_message(0, self.sample_period, state[name]))
+            self.frames[name].publish(messages.frame_message(0, self.sample_period, state[name]))
         self.publish_truth()
-        self.clock.publish(Clock(clock=common.time_msg(0)))
+        self.clock.publish(Clock(clock=messages.time_msg(0)))
         self.advance()
 
     def on_command(self, msg):
-        stamp = common.stamp_to_ns(msg.header.stamp)
+        stamp = topics.stamp_to_ns(msg.header.stamp)
         if stamp < self.now or len(msg.data) != self.samples:
             self.get_logger().error(f'ignored a voltage command stamped {stamp} ns with {len(msg.data)} samples '
                                     f'(expected {self.samples} from {self.now} ns on)')
             return
-        self.commands[stamp] = common.frame_data(msg)
+        self.commands[stamp] = messages.frame_data(msg)
         if self.barrier.is_canceled():
             self.advance()
 
@@ -125,11 +126,11 @@ class PlantNode(common.EmlaNode):
             voltages = self.commands.pop(start).clip(-self.supply, self.supply)  # as the plant applies them
             states = [self.plant.step(u, self.sample_period) for u in voltages.tolist()]  # (I, x, v) at the ends
             for c, name in enumerate(('current', 'position')):
-                self.frames[name].publish(common.frame_message(start + self.step, self.sample_period,
+                self.frames[name].publish(messages.frame_message(start + self.step, self.sample_period,
                                                                [state[c] for state in states]))
-            self.frames['voltage'].publish(common.frame_message(start, self.sample_period, voltages))
+            self.frames['voltage'].publish(messages.frame_message(start, self.sample_period, voltages))
             self.period += 1
-            self.clock.publish(Clock(clock=common.time_msg(self.now)))
+            self.clock.publish(Clock(clock=messages.time_msg(self.now)))
             changed = any(start * 1e-9 < c.time <= self.now * 1e-9 for c in self.changes)
             if changed or self.now % self.parameters_step == 0 or self.period == self.periods:
                 self.publish_truth()
@@ -137,12 +138,12 @@ class PlantNode(common.EmlaNode):
                 self.finish()
 
     def publish_truth(self):
-        self.truth.publish(common.estimate_message(self.now, self.plant.true_parameters().physical(),
+        self.truth.publish(messages.estimate_message(self.now, self.plant.true_parameters().physical(),
                                                    std=dict.fromkeys(PARAMETER_NAMES, 0.0)))
 
     def finish(self):
         wall = time.monotonic() - self.wall_start
-        self.done.publish(common.time_msg(self.now))
+        self.done.publish(messages.time_msg(self.now))
         self.get_logger().info(f'done at t = {self.now * 1e-9:g} s; from the first command to the last frame: '
                                f'wall time {wall:.3f} s, realtime factor {self.now * 1e-9 / wall:.3f}')
         self.finished = True  # common.run exits once the readers acknowledged

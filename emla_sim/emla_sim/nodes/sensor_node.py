@@ -6,7 +6,8 @@ voltage frames pass unchanged (the DSP knows what it applied).
 import sys
 
 from emla_msgs.msg import SampleFrame
-from emla_sim.nodes import common
+from emla_core import messages, topics
+from emla_core.nodes import common
 from emla_sim.sensor import Sensor, SensorConfig
 
 SPECS = [
@@ -27,16 +28,16 @@ class SensorNode(common.EmlaNode):
         super().__init__()
         p = common.declare(self, SPECS)
         self.sensor = Sensor(SensorConfig(**{spec.name: getattr(p, spec.name) for spec in SPECS}))
-        self.outputs = common.frame_publishers(self, common.MEASURED_TOPICS)
-        self.create_subscription(SampleFrame, common.PLANT_TOPICS['voltage'], self.outputs['voltage'].publish,
+        self.outputs = common.frame_publishers(self, topics.MEASURED_TOPICS)
+        self.create_subscription(SampleFrame, topics.PLANT_TOPICS['voltage'], self.outputs['voltage'].publish,
                                  common.FRAME_QOS, raw=True)  # passed on serialised
-        self.states = common.FrameSets(self, {name: common.PLANT_TOPICS[name] for name in ('current', 'position')},
+        self.states = common.FrameSets(self, {name: topics.PLANT_TOPICS[name] for name in ('current', 'position')},
                                        self.measure)
 
     def measure(self, stamp, sample_period, frames):
         current, position = self.sensor.measure(frames['current'], frames['position'])
-        self.outputs['current'].publish(common.frame_message(stamp, sample_period, current))
-        self.outputs['position'].publish(common.frame_message(stamp, sample_period, position))
+        self.outputs['current'].publish(messages.frame_message(stamp, sample_period, current))
+        self.outputs['position'].publish(messages.frame_message(stamp, sample_period, position))
 
 
 def main(args=None):

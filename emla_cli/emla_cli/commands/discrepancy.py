@@ -15,7 +15,7 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from emla_sim.errors import InputError
+from emla_core.errors import InputError
 
 from .output import emit_json, json_text
 
@@ -33,7 +33,7 @@ def add_arguments(parser):
 
 def run(args):
     from emla_identification.discrepancy import CANDIDATES, diagnose
-    from emla_sim.recording import load
+    from emla_core.data import load
 
     names = None
     if args.candidates:

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from emla_sim.errors import InputError
+from emla_core.errors import InputError
 
 
 def finite(value):

@@ -4,7 +4,6 @@ The type and the QoS come from the topic's publishers (reliable / transient loca
 Ends after --count messages, or with status 1 when no message came for --timeout seconds.
 """
 import array
-import importlib
 import os
 import sys
 import time
@@ -24,12 +23,6 @@ def add_arguments(parser):
     parser.add_argument('--truncate-length', '-l', type=int, default=128, metavar='K',
                         help='show the first K elements of longer arrays and strings (default 128)')
     parser.add_argument('--full-length', '-f', action='store_true', help='print arrays and strings in full')
-
-
-def message_class(msgtype):
-    """The rclpy class of 'pkg/msg/Name' (or 'pkg/Name')."""
-    package, *_, name = msgtype.split('/')
-    return getattr(importlib.import_module(f'{package}.msg'), name)
 
 
 def to_plain(value, limit=None):
@@ -58,7 +51,8 @@ def subscriber_qos(publishers):
 
 
 def run(args):
-    from emla_control.launcher import ros_node
+    from emla_core.messages import message_class
+    from emla_core.nodes.common import ros_node
 
     limit = None if args.full_length else args.truncate_length
     received = 0

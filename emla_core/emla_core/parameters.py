@@ -9,6 +9,9 @@ import numbers
 
 # The six physical parameters, in the order used across the suite (identification, messages, reports).
 PARAMETER_NAMES = ('resistance', 'inductance', 'emf_constant', 'mass', 'damping', 'load_force')
+# SI units of the ActuatorParameters fields.
+PARAMETER_UNITS = {'resistance': 'ohm', 'inductance': 'H', 'emf_constant': 'V s/m (= N/A)', 'mass': 'kg',
+                   'damping': 'N s/m', 'load_force': 'N (opposes +x)', 'supply_voltage': 'V'}
 
 
 @dataclasses.dataclass(frozen=True)

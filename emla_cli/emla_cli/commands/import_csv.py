@@ -15,8 +15,8 @@ def add_arguments(parser):
 
 
 def run(args):
-    from emla_sim.bag import write_recording
-    from emla_sim.recording import read_csv
+    from emla_core.bag import write_recording
+    from emla_core.recording import read_csv
     recording = read_csv(args.csv)
     bag = Path(args.bagdir)
     existed = bag.is_dir()

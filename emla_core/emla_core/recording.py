@@ -5,13 +5,8 @@ from pathlib import Path
 
 import numpy as np
 
-from emla_sim.errors import InputError
+from emla_core.errors import InputError
 
-# Signals the suite knows by name, with their SI units.
-SIGNAL_UNITS = {
-    'voltage': 'V', 'current': 'A', 'position': 'm', 'velocity': 'm/s', 'force': 'N',
-    'reference': 'm', 'voltage_command': 'V',
-}
 # Relative spread of time steps accepted as uniform sampling (CSV time columns carry rounding).
 UNIFORM_TOLERANCE = 1e-3
 
@@ -45,14 +40,6 @@ class Recording:
         if missing:
             raise InputError(f'{self.source or "recording"}: missing column(s) {", ".join(missing)} '
                              f'(has {", ".join(self.signals) or "none"})')
-
-    def kind(self):
-        """'electromechanical' (t, voltage, current, position), 'mechanical' (t, force, position) or None."""
-        if self.has('voltage', 'current', 'position'):
-            return 'electromechanical'
-        if self.has('force', 'position'):
-            return 'mechanical'
-        return None
 
 
 def read_csv(path):
@@ -109,14 +96,3 @@ def write_csv(recording, path, columns=None):
     columns = list(columns or recording.signals)
     table = np.column_stack([recording.time] + [recording.signals[c] for c in columns])
     np.savetxt(path, table, delimiter=',', header=','.join(['t'] + columns), comments='', fmt='%.10g')
-
-
-def load(path):
-    """A Recording from a CSV file, a rosbag2 directory or a bare .mcap file."""
-    path = Path(path)
-    if path.is_dir() or path.suffix == '.mcap':
-        from emla_sim.bag import read_bag
-        return read_bag(path).recording
-    if not path.exists():
-        raise InputError(f'{path}: no such file or directory')
-    return read_csv(path)

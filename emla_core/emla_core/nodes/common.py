@@ -8,7 +8,7 @@ simulated time of its first sample; the frames of control period k (Tc = n Ts, k
     intervals end on, at k Tc + (j+1) Ts, stamp k Tc + Ts; so the state at (k+1) Tc, the one the command for
     period k+1 must start from, is the last sample of period k's frame. Before period 0 the plant publishes
     one state frame of a single sample: the state at t = 0, stamp 0.
-Aligned by stamp (as emla_sim.bag.read_bag does), the state samples at t_j pair with the voltage held over
+Aligned by stamp (as emla_core.bag.read_bag does), the state samples at t_j pair with the voltage held over
 [t_j, t_j + Ts), the Recording convention; `AlignedSamples` does this for a node.
 
 | topic                                  | type                            | publisher  | QoS     |
@@ -60,8 +60,9 @@ Each node: parameters declared read-only with descriptors (range, units in the d
 package's config/<node>.yaml; SIGINT/SIGTERM end it cleanly with exit status 0 (after the acknowledgements
 of what it published, at most ACK_TIMEOUT); bad parameters end it with one line on stderr and exit status 2.
 """
-import array
+import contextlib
 import dataclasses
+import os
 import signal
 import sys
 import time
@@ -69,8 +70,7 @@ import types
 
 import numpy as np
 import rclpy
-from builtin_interfaces.msg import Time
-from emla_msgs.msg import ParameterEstimate, SampleFrame
+from emla_msgs.msg import SampleFrame
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.duration import Duration
 from rclpy.exceptions import ParameterException
@@ -80,39 +80,22 @@ from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 
-from emla_sim.errors import InputError
-from emla_sim.parameters import PARAMETER_NAMES, TABLE1
-from emla_sim.topics import PARAMETERS_TOPIC, TRUTH_TOPIC, signal_topic, stamp_to_ns
+from emla_core.errors import InputError
+from emla_core.messages import frame_data
+from emla_core.parameters import PARAMETER_UNITS, TABLE1
+from emla_core.topics import QOS, stamp_to_ns, to_ns
 
-SIGNALS = ('voltage', 'current', 'position')
-PLANT_TOPICS = {name: f'/emla/plant/{name}' for name in SIGNALS}
-MEASURED_TOPICS = {name: signal_topic(name) for name in SIGNALS}
-COMMAND_TOPIC = signal_topic('voltage_command')
-REFERENCE_TOPIC = signal_topic('reference')
-ESTIMATE_TOPIC = PARAMETERS_TOPIC
-TRUE_PARAMETERS_TOPIC = TRUTH_TOPIC
-DONE_TOPIC = '/emla/plant/done'
-START_TOPIC = MEASURED_TOPICS['position']  # the plant's start barrier counts this topic's subscriptions
-CLOCK_TOPIC = '/clock'
-DIAGNOSTICS_TOPIC = '/diagnostics'
 
-FRAME_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE,
-                       durability=DurabilityPolicy.TRANSIENT_LOCAL)
-LATCHED_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
-CLOCK_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
-DIAGNOSTICS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.RELIABLE)
+def qos_profile(kind):
+    """The rclpy QoSProfile of a QoS kind of emla_core.topics.QOS."""
+    qos = QOS[kind]
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=qos['depth'],
+                      reliability=ReliabilityPolicy[qos['reliability'].upper()],
+                      durability=DurabilityPolicy[qos['durability'].upper()])
+
+
+FRAME_QOS, LATCHED_QOS, CLOCK_QOS, DIAGNOSTICS_QOS = map(qos_profile, ('frame', 'latched', 'clock', 'diagnostics'))
 ACK_TIMEOUT = 4.0  # s a stopping node waits for its readers' acknowledgements
-
-
-# ---- time: integer nanoseconds, so that stamps of consecutive periods are exact ----
-
-def to_ns(seconds):
-    return int(round(seconds * 1e9))
-
-
-def time_msg(ns):
-    return Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
 
 
 def period_samples(sample_period, control_period):
@@ -126,19 +109,6 @@ def period_samples(sample_period, control_period):
 
 
 # ---- frames ----
-
-def frame_message(stamp, sample_period, data):
-    """A SampleFrame of `data` (1-D float64) with its first sample at `stamp` (ns)."""
-    msg = SampleFrame(sample_period=float(sample_period))
-    msg.header.stamp = time_msg(stamp)
-    msg.data = array.array('d', np.ascontiguousarray(data, dtype=np.float64).tobytes())
-    return msg
-
-
-def frame_data(msg):
-    """The samples of a received SampleFrame as a read-only float64 array over the message's buffer."""
-    return np.frombuffer(msg.data, dtype=np.float64)
-
 
 class FrameSets:
     """Subscribes to frame topics {name: topic}; calls on_set(stamp_ns, sample_period, {name: array}) once
@@ -222,35 +192,6 @@ def frame_publishers(node, topics):
     return {name: node.create_publisher(SampleFrame, topic, FRAME_QOS) for name, topic in topics.items()}
 
 
-def publish_frames(publishers, stamp, sample_period, frames):
-    """Publish frames[name] on publishers[name], all stamped `stamp` (ns)."""
-    for name, publisher in publishers.items():
-        publisher.publish(frame_message(stamp, sample_period, frames[name]))
-
-
-# ---- parameter estimates ----
-
-def estimate_message(stamp, values, std=None, covariance=None, samples=0, residual_rms=float('nan')):
-    """A ParameterEstimate stamped `stamp` (ns); covariance = (names, matrix). What is not given is NaN."""
-    msg = ParameterEstimate(samples_used=int(samples), residual_rms=float(residual_rms))
-    msg.header.stamp = time_msg(stamp)
-    for name in PARAMETER_NAMES:
-        setattr(msg, name, float(values.get(name, float('nan'))))
-    std = std or {}
-    msg.std = [float(std.get(name, float('nan'))) for name in PARAMETER_NAMES]
-    full = np.full((len(PARAMETER_NAMES),) * 2, np.nan)
-    if covariance is not None:
-        index = [PARAMETER_NAMES.index(name) for name in covariance[0]]
-        full[np.ix_(index, index)] = covariance[1]
-    msg.covariance = full.ravel()
-    return msg
-
-
-def estimate_values(msg):
-    """{name: value} of a ParameterEstimate (NaN for what the estimator does not identify)."""
-    return {name: getattr(msg, name) for name in PARAMETER_NAMES}
-
-
 # ---- parameters ----
 
 @dataclasses.dataclass(frozen=True)
@@ -275,17 +216,15 @@ class Spec:
         return descriptor
 
 
-_UNITS = {'resistance': 'ohm', 'inductance': 'H', 'emf_constant': 'V s/m (= N/A)', 'mass': 'kg',
-          'damping': 'N s/m', 'load_force': 'N (opposes +x)', 'supply_voltage': 'V'}
 _RANGES = {'resistance': (1e-3, 1e3), 'inductance': (1e-6, 10.0), 'emf_constant': (1e-3, 1e3),
            'mass': (1e-4, 1e3), 'damping': (0.0, 1e4), 'load_force': (-1e4, 1e4), 'supply_voltage': (0.1, 1e4)}
-ACTUATOR_FIELDS = tuple(_UNITS)  # the ActuatorParameters fields
+ACTUATOR_FIELDS = tuple(_RANGES)  # the ActuatorParameters fields
 
 
 def actuator_specs(what):
     """Specs of the actuator parameters (Table 1 defaults); `what` starts their descriptions."""
-    return [Spec(name, getattr(TABLE1, name), f'{what} {name.replace("_", " ")}, {_UNITS[name]}', *_RANGES[name])
-            for name in _UNITS]
+    return [Spec(name, getattr(TABLE1, name), f'{what} {name.replace("_", " ")}, {PARAMETER_UNITS[name]}', *_RANGES[name])
+            for name in _RANGES]
 
 
 def declare(node, specs):
@@ -348,3 +287,25 @@ def run(node_class, args=None):
         node.destroy_node()
         rclpy.try_shutdown()
     return 0
+
+
+@contextlib.contextmanager
+def ros_node(name, domain=None):
+    """(node, executor) of a helper rclpy node (`emla echo`, `play`, a launch's monitor) in its own context:
+    in the environment's domain, or in `domain` with discovery on this host only (like the launched nodes).
+
+    rclpy's signal handlers are not installed: SIGINT raises KeyboardInterrupt between spin_once() calls.
+    """
+    if domain is not None:
+        os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'   # read by rclpy.init
+    context = rclpy.Context()
+    rclpy.init(context=context, domain_id=domain, signal_handler_options=SignalHandlerOptions.NO)
+    node = rclpy.create_node(name, context=context, start_parameter_services=False)
+    executor = EventsExecutor(context=context)
+    executor.add_node(node)
+    try:
+        yield node, executor
+    finally:
+        executor.shutdown()
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)

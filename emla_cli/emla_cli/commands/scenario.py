@@ -9,7 +9,7 @@ each case over the last cycle, as the EMLA paper's Figures 6-7.
 import textwrap
 from pathlib import Path
 
-from emla_sim.errors import InputError
+from emla_core.errors import InputError
 
 from .output import emit_json, write_file
 

@@ -8,7 +8,7 @@ import signal
 import sys
 from pathlib import Path
 
-from emla_sim.errors import InputError
+from emla_core.errors import InputError
 
 HELP = 'Run one node of the suite (plant, sensor, identifier, controller, recorder).'
 NODES = {
@@ -16,7 +16,7 @@ NODES = {
     'sensor': 'emla_sim.nodes.sensor_node',
     'identifier': 'emla_identification.nodes.identifier_node',
     'controller': 'emla_control.nodes.controller_node',
-    'recorder': 'emla_sim.nodes.recorder_node',
+    'recorder': 'emla_core.nodes.recorder_node',
 }
 
 

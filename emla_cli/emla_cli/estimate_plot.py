@@ -1,6 +1,6 @@
 """Plot of a bag's online estimates (/emla/parameters) against an offline estimate and the plant's truth.
 
-    python -m emla_control.estimate_plot BAG IDENTIFY.json OUT.png
+    python -m emla_cli.estimate_plot BAG IDENTIFY.json OUT.png
 
 IDENTIFY.json is the output of `emla identify BAG --json`.
 """
@@ -9,8 +9,8 @@ import sys
 
 import numpy as np
 
-from emla_sim.bag import read_bag
-from emla_sim.parameters import PARAMETER_NAMES
+from emla_core.bag import read_bag
+from emla_core.parameters import PARAMETER_NAMES
 
 LABELS = {'resistance': 'R [ohm]', 'inductance': 'L [H]', 'emf_constant': 'Km [V s/m]', 'mass': 'm [kg]',
           'damping': 'B [N s/m]', 'load_force': 'Fl [N]'}

@@ -10,7 +10,7 @@ import sys
 import time
 from pathlib import Path
 
-from emla_sim.errors import InputError
+from emla_core.errors import InputError
 
 from .output import emit_json
 
@@ -39,7 +39,7 @@ def _interrupt(signum, frame):
 
 def run(args):
     from emla_control import scenarios
-    from emla_control.launcher import LaunchError, launch, scenario_parameters
+    from emla_cli.launcher import LaunchError, launch, scenario_parameters
 
     scenario = scenarios.get(args.scenario)
     duration = scenario.duration if args.duration is None else args.duration

@@ -21,9 +21,10 @@ from pathlib import Path
 
 import yaml
 
-from emla_sim.bag import read_bag
-from emla_sim.errors import InputError
-from emla_sim.topics import stamp_to_ns
+from emla_core import topics
+from emla_core.bag import read_bag
+from emla_core.errors import InputError
+from emla_core.topics import stamp_to_ns
 
 # Domain ids a launch may take: 215-232 first (clear of the ids tests and users pick), then 1-101.
 DOMAINS = (*range(215, 233), *range(1, 102))
@@ -146,32 +147,6 @@ def clean_shared_memory():
         subprocess.run([str(fastdds), 'shm', 'clean'], capture_output=True, timeout=30)
 
 
-@contextlib.contextmanager
-def ros_node(name, domain=None):
-    """(node, executor) of an rclpy node in its own context: in the environment's domain, or in `domain`
-    with discovery on this host only (like the launched nodes).
-
-    rclpy's signal handlers are not installed: SIGINT raises KeyboardInterrupt between spin_once() calls.
-    """
-    import rclpy
-    from rclpy.experimental import EventsExecutor
-    from rclpy.signals import SignalHandlerOptions
-
-    if domain is not None:
-        os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'   # read by rclpy.init
-    context = rclpy.Context()
-    rclpy.init(context=context, domain_id=domain, signal_handler_options=SignalHandlerOptions.NO)
-    node = rclpy.create_node(name, context=context, start_parameter_services=False)
-    executor = EventsExecutor(context=context)
-    executor.add_node(node)
-    try:
-        yield node, executor
-    finally:
-        executor.shutdown()
-        node.destroy_node()
-        rclpy.try_shutdown(context=context)
-
-
 # ---- a launch: the four nodes and the recorder, until the identifier's final estimate is recorded ----
 
 NODES = ('plant', 'sensor', 'identifier', 'controller')
@@ -194,15 +169,15 @@ class Monitor:
         from emla_msgs.msg import ParameterEstimate
         from rosgraph_msgs.msg import Clock
 
-        from emla_sim.nodes import common
+        from emla_core.nodes import common
 
         self.first_tick = self.last_tick = None    # (wall s, simulated ns) of /clock
         self.done = None                           # simulated ns of the plant's end
         self.done_wall = None
         self.estimate = None                       # the latest ParameterEstimate
-        node.create_subscription(Clock, common.CLOCK_TOPIC, self._on_clock, common.CLOCK_QOS)
-        node.create_subscription(Time, common.DONE_TOPIC, self._on_done, common.LATCHED_QOS)
-        node.create_subscription(ParameterEstimate, common.ESTIMATE_TOPIC, self._on_estimate, common.LATCHED_QOS)
+        node.create_subscription(Clock, topics.CLOCK_TOPIC, self._on_clock, common.CLOCK_QOS)
+        node.create_subscription(Time, topics.DONE_TOPIC, self._on_done, common.LATCHED_QOS)
+        node.create_subscription(ParameterEstimate, topics.PARAMETERS_TOPIC, self._on_estimate, common.LATCHED_QOS)
 
     def _on_clock(self, msg):
         self.last_tick = (time.monotonic(), stamp_to_ns(msg.clock))
@@ -246,6 +221,8 @@ def launch(scenario, duration, bag, node_parameters):
     and start barrier are set here), and the recorder writing `bag`. Returns the contract's summary dict;
     raises LaunchError when a node dies or the run stalls. Every process is stopped on return."""
     from tqdm import tqdm
+
+    from emla_core.nodes.common import ros_node
 
     started = time.monotonic()
     parameters = {**node_parameters, 'plant': {**node_parameters.get('plant', {}), 'duration': float(duration),
@@ -297,18 +274,12 @@ def _wait_for_final(graph, monitor, executor, bar):
 
 # ---- scenarios as a graph ----
 
-def graph_case(scenario):
-    """The case of `scenario` the graph runs: the adaptive controller, on the changed plant if there is one."""
-    adaptive = [case for case, (_, adapt) in scenario.cases.items() if adapt]
-    return max(adaptive, key=lambda case: scenario.cases[case][0])
-
-
 def scenario_parameters(scenario):
-    """{node: {parameter: value}} that make the graph run `scenario` (see graph_case). The control period
+    """{node: {parameter: value}} that make the graph run `scenario` (its graph_case). The control period
     stays the nodes' own (1 ms frames), as do the controller's gains tuned for it."""
-    from emla_sim.nodes import common
+    from emla_core.nodes import common
 
-    changed, adaptive = scenario.cases[graph_case(scenario)]
+    changed, adaptive = scenario.cases[scenario.graph_case]
     actuator = {name: getattr(scenario.params, name) for name in common.ACTUATOR_FIELDS}
     plant = {**actuator, 'sample_period': scenario.sample_period}
     if changed and scenario.effects:

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from emla_sim.errors import InputError
+from emla_core.errors import InputError
 
 from .output import discard, json_text, publish, stage
 
@@ -52,7 +52,7 @@ def add_arguments(parser):
 def run(args):
     model, orders, forgetting = _options(args)
     if model == 'arx':
-        from emla_sim.recording import load
+        from emla_core.data import load
         result, plot = _arx(load(args.data), orders, forgetting, args)
     else:
         result, plot = _greybox(args.data, model, forgetting, args.plot)
@@ -60,7 +60,7 @@ def run(args):
     staged = []  # (temporary, final): renamed only once every output is complete
     try:
         if args.plot:
-            from emla_identification.plots import save_convergence_plot
+            from emla_cli.identify_plot import save_convergence_plot
             staged.append((stage(args.plot, lambda temporary: save_convergence_plot(temporary, *plot)), args.plot))
         if args.json:
             staged.append((stage(args.json, lambda temporary: Path(temporary).write_text(text)), args.json))
@@ -132,8 +132,9 @@ def _record(data):
     """(the Recording, None) when it is shorter than LONG_SAMPLES, else (it or its first part, its consecutive
     parts)."""
     from emla_identification.streaming import split
-    from emla_sim.bag import iter_chunks
-    from emla_sim.recording import Recording, load
+    from emla_core.bag import iter_chunks
+    from emla_core.data import load
+    from emla_core.recording import Recording
     path = Path(data)
     if not (path.is_dir() or path.suffix == '.mcap'):  # CSV, read whole (as load() tells them apart)
         recording = load(path)

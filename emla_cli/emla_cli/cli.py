@@ -1,4 +1,4 @@
-"""The `emla` command line: one entry point, one module per subcommand in `emla_control.commands`."""
+"""The `emla` command line: one entry point, one module per subcommand in `emla_cli.commands`."""
 import argparse
 import importlib
 import os
@@ -9,9 +9,9 @@ from importlib.metadata import PackageNotFoundError, version
 # the other processes of a run for the cores. Set before numpy is first imported.
 os.environ.setdefault('OPENBLAS_NUM_THREADS', '1')
 
-from emla_sim.errors import InputError  # noqa: E402
+from emla_core.errors import InputError  # noqa: E402
 
-# Subcommand name -> module in emla_control.commands. Modules are imported only when their command runs,
+# Subcommand name -> module in emla_cli.commands. Modules are imported only when their command runs,
 # so `emla --help` stays fast and a broken optional dependency cannot break the other commands.
 COMMANDS = {
     'identify': 'identify',
@@ -34,7 +34,7 @@ def _version():
 
 
 def _command_module(name):
-    return importlib.import_module(f'emla_control.commands.{COMMANDS[name]}')
+    return importlib.import_module(f'emla_cli.commands.{COMMANDS[name]}')
 
 
 def build_parser(names=tuple(COMMANDS)):

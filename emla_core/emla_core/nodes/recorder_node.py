@@ -14,26 +14,18 @@ import struct
 import sys
 import time
 
-from builtin_interfaces.msg import Time
-from emla_msgs.msg import ParameterEstimate, SampleFrame
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 
-from emla_sim.bag import BagWriter
-from emla_sim.errors import InputError
-from emla_sim.nodes import common
-from emla_sim.parameters import PARAMETER_NAMES
+from emla_core import messages, topics
+from emla_core.bag import BagWriter
+from emla_core.errors import InputError
+from emla_core.nodes import common
+from emla_core.parameters import PARAMETER_NAMES
 
-# Recorded topics -> message class. Every one is published reliable and transient local (see common).
-TOPICS = {
-    **{topic: SampleFrame for topic in common.PLANT_TOPICS.values()},
-    **{topic: SampleFrame for topic in common.MEASURED_TOPICS.values()},
-    common.COMMAND_TOPIC: SampleFrame,
-    common.REFERENCE_TOPIC: SampleFrame,
-    common.TRUE_PARAMETERS_TOPIC: ParameterEstimate,
-    common.ESTIMATE_TOPIC: ParameterEstimate,
-    common.DONE_TOPIC: Time,
-}
+# Recorded topics -> message class (emla_core.topics.RECORDED). Every one is published reliable and
+# transient local (see common).
+TOPICS = {topic: messages.message_class(msgtype) for topic, (msgtype, _) in topics.RECORDED.items()}
 # Unbounded queues: the writer may fall behind 1 ms frames (8000 messages/s at real time) for a while.
 QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE,
                  durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -46,11 +38,6 @@ SPECS = [
     common.Spec('drain_time', 0.3, 'after SIGINT/SIGTERM, record until no message came for this long, s',
                 0.0, 10.0),
 ]
-
-
-def msgtype(message_class):
-    """'pkg/msg/Name' of a generated message class."""
-    return f'{message_class.__module__.split(".")[0]}/msg/{message_class.__name__}'
 
 
 def header_stamp_ns(cdr):
@@ -71,7 +58,7 @@ class Recorder(common.EmlaNode):
                              custom_data={'scenario': self.config.scenario})
         self.received = 0
         self.topic_subscriptions = [self._subscribe(topic) for topic in TOPICS
-                                    if topic != common.START_TOPIC or not self.config.hold_start]
+                                    if topic != topics.START_TOPIC or not self.config.hold_start]
         if self.config.hold_start:
             self.holding = self.create_timer(0.02, self._join_start)
         self.get_logger().info(f'recording {len(TOPICS)} topics into {self.config.bag}')
@@ -82,18 +69,18 @@ class Recorder(common.EmlaNode):
     def _join_start(self):
         if all(s.get_publisher_count() for s in self.topic_subscriptions):
             self.holding.cancel()
-            self._subscribe(common.START_TOPIC)
-            self.get_logger().info(f'every publisher matched; subscribed to {common.START_TOPIC}')
+            self._subscribe(topics.START_TOPIC)
+            self.get_logger().info(f'every publisher matched; subscribed to {topics.START_TOPIC}')
 
     def _receiver(self, topic, message_class):
-        name = msgtype(message_class)
+        name = topics.RECORDED[topic][0]
 
         def receive(cdr):
             self.received += 1
             self.bag.add_topic(topic, name)
             self.bag.write(topic, header_stamp_ns(cdr), cdr)
-            if topic == common.TRUE_PARAMETERS_TOPIC:
-                truth = common.estimate_values(deserialize_message(cdr, message_class))
+            if topic == topics.TRUE_PARAMETERS_TOPIC:
+                truth = messages.estimate_values(deserialize_message(cdr, message_class))
                 self.bag.custom_data.update({f'true_{k}': repr(float(truth[k])) for k in PARAMETER_NAMES})
         return receive
 

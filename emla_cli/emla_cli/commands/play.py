@@ -6,15 +6,16 @@ as a live identifier takes them: at most 50 ms of bag time ahead of its latest /
 /emla/parameters is then not played. Without an identifier, --rate 0 sends everything at once.
 /clock follows the stamps, so nodes with use_sim_time run on the bag's time. At the end /emla/plant/done
 carries the end of the played data, as the plant sends it, so a live identifier publishes its final estimate
-(see emla_sim.nodes.common).
+(see emla_core.nodes.common).
 """
 import sys
 import time
 from pathlib import Path
 
-from emla_sim.bag import PARAMETER_ESTIMATE, SAMPLE_FRAME, typestore
-from emla_sim.errors import InputError
-from emla_sim.topics import stamp_to_ns
+from emla_core import topics
+from emla_core.bag import typestore
+from emla_core.errors import InputError
+from emla_core.topics import PARAMETER_ESTIMATE, SAMPLE_FRAME, stamp_to_ns
 
 HELP = 'Republish a recorded bag with its timing (or faster).'
 PLAYED_TYPES = (SAMPLE_FRAME, PARAMETER_ESTIMATE)
@@ -53,7 +54,7 @@ def _frame_end(connection, stamp, raw):
 
 
 def _data_end(last_frames):
-    """The end of the time every played signal covers (as emla_sim.bag.read_bag cuts them): the end of the
+    """The end of the time every played signal covers (as emla_core.bag.read_bag cuts them): the end of the
     last voltage interval for a launched graph's bag, i.e. the time the plant reports as done."""
     return min((_frame_end(*frame) for frame in last_frames.values()), default=None)
 
@@ -71,10 +72,10 @@ class IdentifierPace:
     def __init__(self, node, executor, start):
         from emla_msgs.msg import ParameterEstimate
 
-        from emla_sim.nodes import common
+        from emla_core.nodes import common
         self.executor = executor
         self.covered = start
-        node.create_subscription(ParameterEstimate, common.ESTIMATE_TOPIC, self._on_estimate, common.LATCHED_QOS)
+        node.create_subscription(ParameterEstimate, topics.PARAMETERS_TOPIC, self._on_estimate, common.LATCHED_QOS)
 
     def _on_estimate(self, msg):
         self.covered = max(self.covered, stamp_to_ns(msg.header.stamp))
@@ -92,17 +93,17 @@ class IdentifierPace:
 
 
 def _live_identifier(node):
-    from emla_sim.nodes import common
-    return any(info.node_name != node.get_name() for info in node.get_publishers_info_by_topic(common.ESTIMATE_TOPIC))
+    return any(info.node_name != node.get_name() for info in node.get_publishers_info_by_topic(topics.PARAMETERS_TOPIC))
 
 
 def run(args):
     from rclpy.duration import Duration
     from rosgraph_msgs.msg import Clock
 
-    from emla_control.commands.echo import message_class
-    from emla_control.launcher import ros_node
-    from emla_sim.nodes import common
+    from emla_core import messages
+    from emla_core.messages import message_class
+    from emla_core.nodes import common
+    from emla_core.nodes.common import ros_node
 
     if args.rate < 0:
         raise InputError(f'--rate must be >= 0, got {args.rate}')
@@ -117,8 +118,8 @@ def run(args):
             publishers = {c.topic: node.create_publisher(
                 message_class(c.msgtype), c.topic,
                 common.FRAME_QOS if c.msgtype == SAMPLE_FRAME else common.LATCHED_QOS) for c in connections}
-            clock = node.create_publisher(Clock, common.CLOCK_TOPIC, common.CLOCK_QOS)
-            done = node.create_publisher(message_class('builtin_interfaces/msg/Time'), common.DONE_TOPIC,
+            clock = node.create_publisher(Clock, topics.CLOCK_TOPIC, common.CLOCK_QOS)
+            done = node.create_publisher(message_class('builtin_interfaces/msg/Time'), topics.DONE_TOPIC,
                                          common.LATCHED_QOS)
             unheard = _wait_for_subscribers(publishers, args.wait)
             if unheard:
@@ -126,9 +127,9 @@ def run(args):
             pace = None
             if args.rate == 0 and _live_identifier(node):
                 pace = IdentifierPace(node, executor, reader.start_time)
-                connections = [c for c in connections if c.topic != common.ESTIMATE_TOPIC]
-                if common.ESTIMATE_TOPIC in publishers:
-                    node.destroy_publisher(publishers.pop(common.ESTIMATE_TOPIC))
+                connections = [c for c in connections if c.topic != topics.PARAMETERS_TOPIC]
+                if topics.PARAMETERS_TOPIC in publishers:
+                    node.destroy_publisher(publishers.pop(topics.PARAMETERS_TOPIC))
                 print('emla play: paced by the live identifier', file=sys.stderr)
             count, now, last_frames = 0, -1, {}
             wall = time.monotonic()
@@ -139,15 +140,15 @@ def run(args):
                     pace.wait_for(stamp)
                 if stamp > now:
                     now = stamp
-                    clock.publish(Clock(clock=common.time_msg(now)))
+                    clock.publish(Clock(clock=messages.time_msg(now)))
                 publishers[connection.topic].publish(raw)
                 if connection.msgtype == SAMPLE_FRAME:
                     last_frames[connection.topic] = (connection, stamp, raw)
                 count += 1
             end = _data_end(last_frames)
             if end is not None:
-                clock.publish(Clock(clock=common.time_msg(end)))
-                done.publish(common.time_msg(end))
+                clock.publish(Clock(clock=messages.time_msg(end)))
+                done.publish(messages.time_msg(end))
             for publisher in (*publishers.values(), done):
                 publisher.wait_for_all_acked(Duration(seconds=ACK_TIMEOUT))
             print(f'emla play: {count} messages on {len(publishers)} topics, {(now - reader.start_time) * 1e-9:.3f} s '

@@ -1,0 +1,95 @@
+"""Simulate a scenario in-process (no ROS graph) and record it as a bag with the same topics, frames and
+messages as one that `emla launch` records of the same scenario.
+
+The run is the scenario's adaptive case (the one `emla launch` runs), with the identifier's estimate and
+the controller's adaptation every 10 ms as in the graph. The bag holds, like the graph's: one SampleFrame per
+signal per 1 ms control period (the plant's true and the sensor's measured voltage, current and position,
+the voltage command and the reference), the parameter estimates with their full covariance and the plant's
+true parameters every 10 ms, and the end time on /emla/plant/done. So `emla play` can feed it to a live
+identifier, and `emla identify` re-identifies it. The controller runs once a sample here (every 1 ms in the
+graph), so the two bags have the same layout, not the same samples.
+"""
+import sys
+import time
+
+from emla_core.errors import InputError
+
+HELP = 'Simulate a scenario in-process and record it as a bag.'
+
+
+def add_arguments(parser):
+    parser.add_argument('scenario', nargs='?', default='default',
+                        help='resistance_rise, mass_rise, thermal_drift or default (default: default)')
+    parser.add_argument('--duration', type=float, metavar='S', help="simulated time, s (default: the scenario's)")
+    parser.add_argument('--bag', required=True, metavar='DIR', help='bag directory to write (new or empty)')
+
+
+def frames(values, n, state):
+    """(index of the first sample, samples) of the graph's frames of n samples over len(values) - 1 intervals:
+    a voltage frame holds the n values applied over one control period; a state frame the n samples those
+    intervals end on, after a first frame with the state at t = 0 (see emla_core.nodes.common)."""
+    intervals = len(values) - 1
+    if state:
+        yield 0, values[:1]
+        for k in range(0, intervals, n):
+            yield k + 1, values[k + 1:min(k + n, intervals) + 1]
+    else:
+        for k in range(0, intervals, n):
+            yield k, values[k:min(k + n, intervals)]
+
+
+def write_bag(result, path, scenario):
+    """The LoopResult `result` as a bag at `path` (see the module doc)."""
+    from emla_core import topics
+    from emla_core.bag import BagWriter
+    from emla_core.messages import estimate_message, frame_message, time_msg
+    from emla_core.parameters import PARAMETER_NAMES
+
+    recording = result.recording
+    period, start = recording.sample_period, topics.to_ns(recording.start_time)
+    step = topics.to_ns(period)
+    n = round(topics.CONTROL_PERIOD / period)
+    end = start + (len(recording) - 1) * step
+    signals = {**{topics.MEASURED_TOPICS[name]: (recording.signals[name], name != 'voltage')
+                  for name in topics.SIGNALS},
+               topics.PLANT_TOPICS['voltage']: (recording.signals['voltage'], False),
+               topics.PLANT_TOPICS['current']: (result.truth['current'], True),
+               topics.PLANT_TOPICS['position']: (result.truth['position'], True),
+               topics.COMMAND_TOPIC: (recording.signals['voltage'], False),
+               topics.REFERENCE_TOPIC: (recording.signals['reference'], False)}
+    logged = [(f, topics.to_ns(t)) for f, t in enumerate(result.frame_times) if topics.to_ns(t) <= end]
+    truth = {name: float(values[logged[-1][0]]) for name, values in result.true_parameters.items()}
+    zero = dict.fromkeys(PARAMETER_NAMES, 0.0)
+    with BagWriter(path, custom_data={'scenario': scenario, **{f'true_{k}': repr(v) for k, v in truth.items()}}) as bag:
+        for topic, (msgtype, _) in topics.RECORDED.items():
+            bag.add_topic(topic, msgtype)
+        for topic, (values, state) in signals.items():
+            for first, data in frames(values, n, state):
+                bag.write_message(topic, start + first * step, frame_message(start + first * step, period, data))
+        bag.write_message(topics.TRUE_PARAMETERS_TOPIC, start, estimate_message(
+            start, {k: v[0] for k, v in result.true_parameters.items()}, zero))
+        for f, stamp in logged:
+            bag.write_message(topics.PARAMETERS_TOPIC, stamp, estimate_message(
+                stamp, {k: v[f] for k, v in result.estimates.items()}, {k: v[f] for k, v in result.std.items()},
+                result.covariance[f], samples=(stamp - start) // step))
+            bag.write_message(topics.TRUE_PARAMETERS_TOPIC, stamp, estimate_message(
+                stamp, {k: v[f] for k, v in result.true_parameters.items()}, zero))
+        bag.write_message(topics.DONE_TOPIC, end, time_msg(end))
+
+
+def run(args):
+    from emla_control import scenarios
+    from emla_core.topics import ESTIMATE_PERIOD
+
+    scenario = scenarios.get(args.scenario)
+    duration = scenario.duration if args.duration is None else args.duration
+    if not 0 < duration < 1e6:
+        raise InputError(f'--duration must be positive, got {duration}')
+    started = time.monotonic()
+    # One sample more than the duration: the state the last voltage interval ends on is sampled too.
+    result = scenario.run_case(scenario.graph_case, duration + scenario.sample_period,
+                               frame_samples=round(ESTIMATE_PERIOD / scenario.sample_period))
+    write_bag(result, args.bag, scenario.name)
+    print(f'emla simulate: {scenario.name}, {duration:g} s ({len(result.recording) - 1} samples) in '
+          f'{time.monotonic() - started:.1f} s; bag {args.bag}', file=sys.stderr)
+    return 0

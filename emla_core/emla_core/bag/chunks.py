@@ -1,0 +1,285 @@
+"""A bag's signals in parts with bounded memory: iter_chunks.
+
+The SampleFrames of each MCAP chunk are decoded in one compiled pass: the per-message deserialisation that
+read_bag uses would take longer than the identification of the samples.
+"""
+import collections
+from pathlib import Path
+
+import numba
+import numpy as np
+from mcap.reader import make_reader
+
+from emla_core.errors import InputError
+from emla_core.recording import Recording
+from emla_core.topics import NAMESPACE, SAMPLE_FRAME
+
+from .reader import MCAP_ERRORS, bag_files, read_bag
+
+_MCAP_MESSAGE = 0x05      # the opcode of an MCAP Message record
+_DECODE_BYTES = 1 << 20   # uncompressed chunk data decoded at a time
+
+
+def iter_chunks(path, signals=None, chunk_samples=1 << 14):
+    """read_bag(path).recording as consecutive Recordings of `chunk_samples` samples (the last one shorter),
+    decoded and aligned as the MCAP chunks are read: memory holds a part, not the record.
+
+    signals: the names the parts carry (default: all); all of the bag's signals are aligned, as read_bag does.
+    Each signal's frames must be stored in time order (the suite stores frames at their stamps), where read_bag
+    also accepts them shuffled. A file without a summary and chunk index (e.g. a bare .mcap whose writer was
+    killed) is read whole by read_bag and comes as one part.
+    """
+    if isinstance(chunk_samples, bool) or not isinstance(chunk_samples, int) or chunk_samples < 1:
+        raise ValueError(f'chunk_samples must be a positive integer, got {chunk_samples!r}')
+    path = Path(path)
+    if not path.exists():
+        raise InputError(f'{path}: no such file or directory')
+    files, custom = bag_files(path)
+    layouts = _signal_channels(files)
+    if layouts is None:
+        recording = read_bag(path).recording
+        recording.signals = {k: v for k, v in recording.signals.items() if signals is None or k in signals}
+        yield recording
+        return
+    names = sorted({topic[len(NAMESPACE):] for _, channels in layouts for topic in channels.values()})
+    aligner = _Aligner(path, names, names if signals is None else [n for n in names if n in signals],
+                       chunk_samples, custom)
+    for file, channels in layouts:
+        slot_of_channel = np.full(max(channels, default=0) + 1, -1, dtype=np.int64)
+        for channel, topic in channels.items():
+            slot_of_channel[channel] = names.index(topic[len(NAMESPACE):])
+        for frames in _decoded_chunks(file, slot_of_channel, len(names)):
+            yield from aligner.add(*frames)
+    yield from aligner.finish()
+
+
+class _Aligner:
+    """Frames of each signal, checked for gaps and overlaps as read_bag checks them, cut to the time span all
+    signals share (read_bag's first and last) and handed out in parts as soon as every signal has them."""
+
+    def __init__(self, path, names, wanted, chunk_samples, metadata):
+        self.path, self.names, self.chunk_samples, self.metadata = path, names, chunk_samples, metadata
+        self.period = None
+        self.start, self.end = {}, {}                   # ns: first stamp, stamp the next frame must have
+        self.received = dict.fromkeys(names, 0)          # samples
+        self.queues = {name: _Queue() for name in wanted}
+        self.first = None                                # the shared start, once every signal has begun
+        self.offsets = {}                                # samples of each signal before it
+        self.emitted = 0
+
+    def add(self, slot_of, stamps, periods, lengths, values, starts):
+        """The parts complete after one decoded MCAP chunk."""
+        for slot, name in enumerate(self.names):
+            mine = slot_of == slot
+            if mine.any():
+                self._frames(name, stamps[mine], periods[mine], lengths[mine])
+                if name in self.queues:
+                    self.queues[name].push(values[starts[slot]:starts[slot + 1]])
+        return self._parts(final=False)
+
+    def finish(self):
+        if len(self.start) < len(self.names):  # summaries that count frames the chunks do not hold
+            raise InputError(f'{self.path}: no frames of {", ".join(n for n in self.names if n not in self.start)}')
+        return self._parts(final=True)
+
+    def _frames(self, name, stamps, periods, lengths):
+        if self.period is None:
+            self.period = float(periods[0])
+            if not self.period > 0:
+                raise InputError(f'{self.path}: sample period {self.period} is not positive')
+        if np.any(periods != self.period):
+            different = sorted({self.period, *periods.tolist()})
+            raise InputError(f'{self.path}: frames have different sample periods {different}')
+        durations = np.rint(lengths * self.period * 1e9).astype(np.int64)  # round(len(data) * period * 1e9)
+        expected = np.concatenate(([self.end.get(name, stamps[0])], stamps[:-1] + durations[:-1]))
+        bad = np.abs(stamps - expected) > 0.5 * self.period * 1e9
+        if bad.any():
+            stamp = stamps[np.argmax(bad)]
+            raise InputError(f'{self.path}: /emla/{name} has a gap or overlap at t = {stamp * 1e-9:.6f} s')
+        self.start.setdefault(name, int(stamps[0]))
+        self.end[name] = int(stamps[-1] + durations[-1])
+        self.received[name] += int(lengths.sum())
+
+    def _parts(self, final):
+        if self.first is None:
+            if len(self.start) < len(self.names):
+                return
+            self.first = max(self.start.values())
+            self.offsets = {n: round((self.first - self.start[n]) * 1e-9 / self.period) for n in self.names}
+            for name, queue in self.queues.items():
+                queue.drop(self.offsets[name])
+        last = min(self.end.values())
+        if final and last <= self.first:
+            raise InputError(f'{self.path}: the signal topics share no time span')
+        total = max(0, round((last - self.first) * 1e-9 / self.period))  # read_bag's n, or a lower bound of it
+        if not final:
+            total = min([total] + [self.received[n] - self.offsets[n] for n in self.names])
+        while total - self.emitted >= self.chunk_samples:
+            yield self._part(self.chunk_samples)
+        if final and (total > self.emitted or not self.emitted):  # the rest; an empty record as one empty part
+            yield self._part(total - self.emitted)
+
+    def _part(self, size):
+        part = Recording(sample_period=self.period, signals={name: q.take(size) for name, q in self.queues.items()},
+                         start_time=self.first * 1e-9 + self.emitted * self.period, source=str(self.path),
+                         metadata=self.metadata)
+        self.emitted += size
+        return part
+
+
+class _Queue:
+    """Samples of one signal waiting to be handed out: arrays in arrival order."""
+
+    def __init__(self):
+        self._arrays, self._skip = collections.deque(), 0
+
+    def push(self, values):
+        self._arrays.append(values)
+
+    def drop(self, n):
+        self._skip += n
+
+    def take(self, n):
+        parts = []
+        while n > 0 and self._arrays:
+            head = self._arrays[0]
+            if self._skip >= len(head):
+                self._skip -= len(head)
+                self._arrays.popleft()
+                continue
+            piece = head[self._skip:self._skip + n]
+            parts.append(piece)
+            n -= len(piece)
+            self._skip += len(piece)
+        return parts[0] if len(parts) == 1 else np.concatenate(parts) if parts else np.empty(0)
+
+
+def _signal_channels(files):
+    """[(file, {channel id: signal topic})] from the MCAP summaries; None if a file has none, or has messages
+    outside chunks or on signal channels that are not CDR."""
+    layouts = []
+    for file in files:
+        summary = _summary(file)
+        statistics = summary and summary.statistics
+        if statistics is None or len(summary.chunk_indexes) != statistics.chunk_count \
+                or (statistics.message_count and not statistics.chunk_count):
+            return None
+        channels = {}
+        for channel in summary.channels.values():
+            schema = summary.schemas.get(channel.schema_id)
+            if schema is not None and schema.name == SAMPLE_FRAME and channel.topic.startswith(NAMESPACE) \
+                    and statistics.channel_message_counts.get(channel.id, 0):
+                if channel.message_encoding != 'cdr':
+                    return None
+                channels[channel.id] = channel.topic
+        layouts.append((file, channels))
+    return layouts
+
+
+def _summary(file):
+    """The summary section of an MCAP file, None if it has none or cannot be read."""
+    try:
+        with file.open('rb') as f:
+            return make_reader(f).get_summary()
+    except MCAP_ERRORS:
+        return None
+
+
+def _decoded_chunks(file, slot_of_channel, slots):
+    """_decode_frames of the chunks of an MCAP file, in file order, a few together (the records of consecutive
+    chunks, uncompressed, are one valid sequence of records). The chunk index is read here, file by file: over
+    thousands of files it would take memory in proportion to the record."""
+    from mcap.data_stream import ReadDataStream
+    from mcap.records import Chunk
+    from mcap.stream_reader import get_chunk_data_stream
+    try:
+        with file.open('rb') as f:
+            summary = make_reader(f).get_summary()
+            if summary is None:  # it had one when iter_chunks began
+                raise ValueError('the summary section is gone')
+            chunk_indexes = sorted(summary.chunk_indexes, key=lambda c: c.chunk_start_offset)
+            batch, size = [], 0
+            for j, index in enumerate(chunk_indexes):
+                f.seek(index.chunk_start_offset + 1 + 8)  # past the record's opcode and length
+                stream, length = get_chunk_data_stream(Chunk.read(ReadDataStream(f)))
+                batch.append(stream.read(length))
+                size += length
+                if size >= _DECODE_BYTES or j == len(chunk_indexes) - 1:
+                    *frames, bad = _decode_frames(np.frombuffer(b''.join(batch), np.uint8), slot_of_channel, slots)
+                    if bad >= 0:
+                        raise ValueError(f'malformed record or SampleFrame in the chunks before byte '
+                                         f'{index.chunk_start_offset + index.chunk_length}')
+                    yield frames
+                    batch, size = [], 0
+    except MCAP_ERRORS as exc:
+        raise InputError(f'{file}: unreadable MCAP: {" ".join(str(exc).split()) or type(exc).__name__}') from None
+
+
+@numba.njit(cache=True)
+def _little_endian(buf, at, size):
+    value = 0
+    for b in range(size - 1, -1, -1):
+        value = (value << 8) | buf[at + b]
+    return value
+
+
+@numba.njit(cache=True)
+def _frame_layout(buf, body, end):
+    """(stamp ns, sample-period bits, samples, first data byte) of the little-endian CDR SampleFrame in the
+    Message record body [body, end); samples -1 if it is not one."""
+    cdr = body + 22  # channel id, sequence, log and publish time come first
+    if cdr + 16 > end or buf[cdr] != 0 or buf[cdr + 1] != 1:
+        return 0, 0, -1, 0
+    sec = _little_endian(buf, cdr + 4, 4)
+    stamp = (sec - (sec >> 31 << 32)) * 1_000_000_000 + _little_endian(buf, cdr + 8, 4)
+    period = (12 + _little_endian(buf, cdr + 12, 4) + 7) // 8 * 8  # after the frame_id; 8-aligned in the body
+    if cdr + 4 + period + 12 > end:
+        return 0, 0, -1, 0
+    samples = _little_endian(buf, cdr + 4 + period + 8, 4)
+    data = cdr + 4 + (period + 12 + 7) // 8 * 8
+    if data + 8 * samples > end:
+        return 0, 0, -1, 0
+    return stamp, _little_endian(buf, cdr + 4 + period, 8), samples, data
+
+
+@numba.njit(cache=True)
+def _decode_frames(buf, slot_of_channel, slots):
+    """The SampleFrames on channels with a slot (>= 0) among the records of uncompressed MCAP chunk data.
+
+    Returns per frame (in record order) its slot, stamp (ns), sample period and length; the values of each slot
+    concatenated in record order, slot s's from starts[s] to starts[s + 1]; and the byte offset of the first
+    malformed record or frame (-1: none; the frames before it are returned)."""
+    capacity = buf.size // 63 + 1  # a record with a SampleFrame takes at least 9 + 22 + 32 bytes
+    slot_of = np.empty(capacity, dtype=np.int64)
+    stamps = np.empty(capacity, dtype=np.int64)
+    bits = np.empty(capacity, dtype=np.int64)
+    lengths = np.empty(capacity, dtype=np.int64)
+    data = np.empty(capacity, dtype=np.int64)
+    starts = np.zeros(slots + 1, dtype=np.int64)
+    frames, pos, bad = 0, 0, -1
+    while pos < buf.size:
+        length = _little_endian(buf, pos + 1, 8) if pos + 9 <= buf.size else -1
+        body, end = pos + 9, pos + 9 + length
+        if length < 0 or end > buf.size:
+            bad = pos
+            break
+        if buf[pos] == _MCAP_MESSAGE and end >= body + 2:
+            channel = _little_endian(buf, body, 2)
+            slot = slot_of_channel[channel] if channel < slot_of_channel.size else -1
+            if slot >= 0:
+                stamps[frames], bits[frames], lengths[frames], data[frames] = _frame_layout(buf, body, end)
+                if lengths[frames] < 0:
+                    bad = pos
+                    break
+                slot_of[frames] = slot
+                starts[slot + 1] += lengths[frames]
+                frames += 1
+        pos = end
+    starts = np.cumsum(starts)
+    values = np.empty(starts[slots])
+    filled = starts[:slots].copy()
+    for f in range(frames):
+        at, size = filled[slot_of[f]], lengths[f]
+        values[at:at + size] = buf[data[f]:data[f] + 8 * size].view(np.float64)  # little-endian host; unaligned ok
+        filled[slot_of[f]] += size
+    return slot_of[:frames], stamps[:frames], bits[:frames].view(np.float64), lengths[:frames], values, starts, bad
