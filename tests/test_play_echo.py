@@ -23,7 +23,7 @@ def simulated(tmp_path_factory):
 
 def test_simulate_writes_the_scenario_with_estimates_and_truth(simulated):
     contents = read_bag(simulated)
-    assert len(contents.recording) == 9999          # the loop's 10000 samples but the last
+    assert len(contents.recording) == 10000         # 1 s at 10 kHz, as the graph records it
     assert {'voltage', 'current', 'position', 'reference', 'plant/current'} <= set(contents.recording.signals)
     assert contents.metadata['scenario'] == 'default' and float(contents.metadata['true_mass']) == 0.036
     assert contents.estimates[-1][1]['resistance'] == pytest.approx(4.0, rel=0.03)
@@ -43,7 +43,7 @@ def test_a_live_identifier_fed_by_play_agrees_with_offline_identification(simula
         out, err = echo.communicate(timeout=60)
         assert echo.returncode == 0 and identifier.poll() is None, err
     online = next(yaml.safe_load_all(out))
-    assert online['header']['stamp'] == {'sec': 0, 'nanosec': 999_900_000} and online['samples_used'] == 9999
+    assert online['header']['stamp'] == {'sec': 1, 'nanosec': 0} and online['samples_used'] == 10000
     offline = json.loads(subprocess.run([EMLA, 'identify', str(simulated)], check=True, capture_output=True,
                                         text=True, timeout=120).stdout)
     for name, value in offline['parameters'].items():
@@ -64,7 +64,7 @@ def test_echo_prints_yaml_documents_with_long_arrays_shortened(simulated, ros_en
     assert docs[0]['sample_period'] == 1e-4 and docs[0]['header']['stamp'] == {'sec': 0, 'nanosec': 0}
     assert len(docs[0]['data']) == 1 and docs[1]['data'][-1] == '...' and len(docs[1]['data']) == 6
     first, second = [d for d in yaml.safe_load_all(outputs[1][0]) if d]
-    assert len(first['data']) == 1 and len(second['data']) == 100   # the state at t = 0, then a full frame
+    assert len(first['data']) == 1 and len(second['data']) == 10    # the state at t = 0, then a 1 ms frame
 
 
 def test_echo_without_a_publisher_is_one_clear_line(ros_env):

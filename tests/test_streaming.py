@@ -10,13 +10,15 @@ from mcap.writer import Writer
 from emla_cli.cli import main
 from emla_cli.commands import identify as identify_command
 from emla_identification import streaming
-from emla_identification.greybox import LagMoments, identify
+from emla_identification.greybox import identify
+from emla_identification.moments import LagMoments
 from emla_identification.offline import WeightedAccumulator, weighted_least_squares
 from emla_identification.online import OnlineIdentifier
 from emla_identification.regressors import HISTORY, instruments, rows
-from emla_identification.streaming import RowStream, identify_chunks
+from emla_identification.regressors import RowStream
+from emla_identification.streaming import identify_chunks
 from emla_core.bag import BagWriter, iter_chunks, read_bag, typestore, write_recording
-from emla_core.messages import frame_message
+from emla_core.messages import frame_message, serialize
 from emla_core.topics import SAMPLE_FRAME
 from emla_core.errors import InputError
 from emla_core.parameters import TABLE1
@@ -216,8 +218,7 @@ def test_a_bare_mcap_without_chunks_is_read_whole(tmp_path):
         channel = writer.register_channel(topic='/emla/current', message_encoding='cdr', schema_id=schema)
         for k in range(5):
             frame = frame_message(k * 10**6, 1e-4, np.full(10, float(k)))
-            writer.add_message(channel, log_time=k * 10**6, publish_time=k * 10**6,
-                               data=bytes(typestore().serialize_cdr(frame, SAMPLE_FRAME)))
+            writer.add_message(channel, log_time=k * 10**6, publish_time=k * 10**6, data=serialize(frame))
         writer.finish()
     (part,) = iter_chunks(path, chunk_samples=7)
     np.testing.assert_array_equal(part.signals['current'], read_bag(path).recording.signals['current'])

@@ -1,19 +1,19 @@
 """Online grey-box identification from frames of consecutive samples (the identifier node, the closed loop).
 
 The rows are those of regressors.py, computed per frame with the last HISTORY samples of the previous frame
-in front (streaming.RowStream), so the stream yields exactly the rows of the whole record; each regression runs
+in front (regressors.RowStream), so the stream yields exactly the rows of the whole record; each regression runs
 its own RecursiveLeastSquares over them (with its instruments, if it has any). The physical parameters are
-formed from the recursions' states by greybox.physical, as greybox.identify forms them from the batch solution:
+formed from the recursions' states by physical.physical, as greybox.identify forms them from the batch solution:
 with forgetting 1 the final estimate equals greybox.identify on the same samples (to rounding).
 """
 import math
 
 import numpy as np
 
-from .greybox import RowMoments, physical, physical_values
-from .regressors import COLUMNS, INSTRUMENTED, SIGNALS, regressions_for
+from .moments import RowMoments
+from .physical import physical, physical_values
+from .regressors import COLUMNS, INSTRUMENTED, SIGNALS, RowStream, regressions_for
 from .rls import RecursiveLeastSquares
-from .streaming import RowStream
 
 
 class OnlineIdentifier:
@@ -23,7 +23,7 @@ class OnlineIdentifier:
     ('force', 'position') for mechanical-only data. Memory: a forgetting factor or a memory time constant
     (s); neither means no forgetting. update() costs about 1.5 us per sample (full model, frames of 100);
     estimate() about 0.5-2 ms, so call it at the rate the uncertainties are used; values() gives the parameters
-    alone, without the noise model, for about half of that (what remains is tying h, greybox._restricted).
+    alone, without the noise model, for about half of that (what remains is tying h, physical.physical_values).
     """
 
     def __init__(self, sample_period, model='full', *, forgetting=None, memory_time=None,

@@ -76,7 +76,7 @@ def regressions_for(model, available):
     mechanical: force and position if there is a force signal. Otherwise every model needs the coil signals
     (voltage, current, position) and uses both equations: full shares Km between them, mechanical takes Km
     from the electrical one, and electrical uses the mechanical one to tell current noise from position
-    noise in its uncertainties (greybox._noise_variances).
+    noise in its uncertainties (noise.noise_variances).
     """
     if model not in MODELS:
         raise ValueError(f'unknown model {model!r}; choose one of {", ".join(MODELS)}')
@@ -179,3 +179,31 @@ def noise_stencils(kind, sample_period):
         phi, y = rows(kind, impulse, sample_period)
         stencils[name] = ((y - base_y)[::-1], (phi - base_phi)[::-1])  # row k = 6 - j sees offset j - 2
     return stencils
+
+
+class RowStream:
+    """Regression rows of `kinds` from consecutive frames of samples: each frame gets the last HISTORY samples
+    of the previous one in front, so the frames together give exactly the rows of the whole record."""
+
+    def __init__(self, kinds, sample_period):
+        self.kinds = tuple(kinds)
+        self.sample_period = float(sample_period)
+        self.signals = sorted({s for kind in self.kinds for s in SIGNALS[kind]})
+        self.reset()
+
+    def reset(self):
+        self._tail = {name: np.empty(0) for name in self.signals}
+        self.samples = 0
+
+    def rows(self, frame):
+        """{kind: (Phi, Y, instruments or None)} of the rows the frame {signal: 1-D array of equal lengths}
+        completes."""
+        new = {name: np.asarray(frame[name], dtype=float).reshape(-1) for name in self.signals}
+        lengths = {len(values) for values in new.values()}
+        if len(lengths) != 1:
+            raise ValueError(f'frame signals have different lengths {sorted(lengths)}')
+        joined = {name: np.concatenate((self._tail[name], values)) for name, values in new.items()}
+        self._tail = {name: values[-HISTORY:].copy() for name, values in joined.items()}
+        self.samples += lengths.pop()
+        return {kind: (*rows(kind, joined, self.sample_period), instruments(kind, joined, self.sample_period))
+                for kind in self.kinds}

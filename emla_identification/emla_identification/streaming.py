@@ -1,8 +1,7 @@
-"""Samples into the grey-box regressions part by part: the rows of consecutive frames (RowStream, also behind
-online.py) and the identification of records too long to hold in memory (identify_chunks).
+"""Identification of records too long to hold in memory, part by part (identify_chunks).
 
 identify_chunks takes a record as consecutive parts (Recordings: emla_core.bag.iter_chunks from a bag, split()
-of one in memory) and keeps per regression an offline.WeightedAccumulator and the greybox.RowMoments of its rows,
+of one in memory) and keeps per regression an offline.WeightedAccumulator and the moments.RowMoments of its rows,
 and their plain Gram matrix for the excitation check: memory of one part and a few small matrices, whatever the
 record's length. The result is greybox.identify's on the whole record to rounding (the same least-squares
 states and moments, summed in other groupings); the convergence trajectory is sampled at part ends.
@@ -13,38 +12,11 @@ import numpy as np
 
 from emla_core.recording import Recording
 
-from . import greybox, offline
-from .regressors import COLUMNS, HISTORY, INSTRUMENTED, SIGNALS, instruments, rows
+from . import checks, greybox, offline
+from .moments import RowMoments
+from .regressors import COLUMNS, HISTORY, INSTRUMENTED, RowStream
 
 CHUNK_SAMPLES = 1 << 14  # samples whose rows are formed at a time: they stay in cache
-
-
-class RowStream:
-    """Regression rows of `kinds` from consecutive frames of samples: each frame gets the last HISTORY samples
-    of the previous one in front, so the frames together give exactly the rows of the whole record."""
-
-    def __init__(self, kinds, sample_period):
-        self.kinds = tuple(kinds)
-        self.sample_period = float(sample_period)
-        self.signals = sorted({s for kind in self.kinds for s in SIGNALS[kind]})
-        self.reset()
-
-    def reset(self):
-        self._tail = {name: np.empty(0) for name in self.signals}
-        self.samples = 0
-
-    def rows(self, frame):
-        """{kind: (Phi, Y, instruments or None)} of the rows the frame {signal: 1-D array of equal lengths}
-        completes."""
-        new = {name: np.asarray(frame[name], dtype=float).reshape(-1) for name in self.signals}
-        lengths = {len(values) for values in new.values()}
-        if len(lengths) != 1:
-            raise ValueError(f'frame signals have different lengths {sorted(lengths)}')
-        joined = {name: np.concatenate((self._tail[name], values)) for name, values in new.items()}
-        self._tail = {name: values[-HISTORY:].copy() for name, values in joined.items()}
-        self.samples += lengths.pop()
-        return {kind: (*rows(kind, joined, self.sample_period), instruments(kind, joined, self.sample_period))
-                for kind in self.kinds}
 
 
 class _Regression:
@@ -54,7 +26,7 @@ class _Regression:
         n = len(COLUMNS[kind])
         self.least_squares = offline.WeightedAccumulator(n, instrumented=kind in INSTRUMENTED,
                                                          forgetting=forgetting, initial_covariance=initial_covariance)
-        self.moments = greybox.RowMoments(n, forgetting, kind in INSTRUMENTED)
+        self.moments = RowMoments(n, forgetting, kind in INSTRUMENTED)
         self._gram = None if forgetting == 1.0 else np.zeros((n, n))  # else the lag-0 moment is that sum
 
     def add(self, phi, y, zeta):
@@ -83,14 +55,14 @@ def identify_chunks(chunks, model=None, forgetting=1.0, *, initial_covariance=1e
     first = next(chunks, None)
     if first is None:
         raise ValueError('identify_chunks needs at least one part of the record')
-    model, kinds, lam = greybox._setup(first, model, forgetting)
+    model, kinds, lam = checks.setup(first, model, forgetting)
     stream = RowStream(kinds, first.sample_period)
     regressions = {kind: _Regression(kind, lam, initial_covariance) for kind in kinds}
     snapshots, ends, stride, parts = [], [], 1, 0
     for part in itertools.chain([first], chunks):
         if part.sample_period != first.sample_period:
             raise ValueError(f'parts with different sample periods ({first.sample_period}, {part.sample_period})')
-        greybox._check_finite(part, kinds, first=stream.samples)
+        checks.check_finite(part, kinds, first=stream.samples)
         for start in range(0, len(part), CHUNK_SAMPLES):  # whatever the parts' size, rows in cache-sized slices
             piece = {name: part.signals[name][start:start + CHUNK_SAMPLES] for name in stream.signals}
             for kind, (phi, y, zeta) in stream.rows(piece).items():
@@ -104,14 +76,14 @@ def identify_chunks(chunks, model=None, forgetting=1.0, *, initial_covariance=1e
                     snapshots, ends, stride = snapshots[1::2], ends[1::2], 2 * stride
         if progress:
             progress(stream.samples)
-    greybox._check_length(stream.samples, model, first.source)
+    checks.check_length(stream.samples, model, first.source)
     for kind, regression in regressions.items():
-        greybox._check_excitation(regression.gram(), kind, first.source or 'recording')
+        checks.check_excitation(regression.gram(), kind, first.source or 'recording')
     if ends and ends[-1] == stream.samples - HISTORY:
         snapshots, ends = snapshots[:-1], ends[:-1]
     snapshots.append({kind: r.statistics() for kind, r in regressions.items()})
     ends.append(stream.samples - HISTORY)
-    return greybox._result(model, snapshots, ends, first, stream.samples, lam)
+    return greybox.result(model, snapshots, ends, first, stream.samples, lam)
 
 
 def split(recording, chunk_samples=CHUNK_SAMPLES):

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal import lfilter
 
-from emla_identification.greybox import coil_parameters, force_parameters
+from emla_identification.physical import coil_parameters, force_parameters
 from emla_identification.regressors import rows, tie
 
 from .data import State, regression_rows

@@ -13,7 +13,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from emla_msgs.msg import ParameterEstimate
 from std_msgs.msg import Header
 
-from emla_identification.greybox import MODEL_PARAMETERS
+from emla_identification.physical import MODEL_PARAMETERS
 from emla_identification.online import OnlineIdentifier
 from emla_core.errors import InputError
 from emla_core import messages, topics
