@@ -84,8 +84,8 @@ def _prepare():
         return
     from emla_core.bag import write_recording
     from emla_core.parameters import TABLE1
-    from emla_sim.plant import Plant
     from emla_core.recording import Recording
+    from emla_sim.plant import Plant
     from emla_sim.sensor import Sensor, SensorConfig
 
     print(f'[bench] offline: generating {SAMPLES} samples into {CACHE} (once)', file=sys.stderr, flush=True)
@@ -121,11 +121,11 @@ def _child(mode, samples, repeats=REPEATS, trace=True):
 
 def _work(mode, samples):
     """The function to measure; its data are loaded (not measured) and its compiled code is warmed up."""
+    from emla_core.bag import iter_chunks, read_bag
+    from emla_core.recording import Recording
     from emla_identification.greybox import identify
     from emla_identification.online import OnlineIdentifier
     from emla_identification.streaming import identify_chunks, split
-    from emla_core.bag import iter_chunks, read_bag
-    from emla_core.recording import Recording
 
     bag = CACHE / f'bag-{samples}'
     identify_chunks(iter_chunks(CACHE / f'bag-{SMALL}', chunk_samples=5000), points=1)  # compile, load caches

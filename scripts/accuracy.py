@@ -1,19 +1,15 @@
 """The README's identification accuracy table: errors of `emla identify` (greybox.identify) against the true
-parameters on closed-loop data the code has not seen (tests/datagen.py: 10 kHz, 5 mA current noise, 1 um
+parameters on closed-loop data the code has not seen (emla_sim.datasets: 10 kHz, 5 mA current noise, 1 um
 position quantisation, unless noise-free). Run: .venv/bin/python scripts/accuracy.py (some seconds).
 """
 import dataclasses
-import sys
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / 'tests'))
-from datagen import TABLE2, closed_loop, force_driven, random_parameters  # noqa: E402
-
-from emla_control import scenarios  # noqa: E402
-from emla_identification.greybox import identify  # noqa: E402
-from emla_core.parameters import TABLE1  # noqa: E402
+from emla_control import scenarios
+from emla_core.parameters import TABLE1
+from emla_identification.greybox import identify
+from emla_sim.datasets import TABLE2, closed_loop, force_driven, random_parameters
 
 NAMES = ('resistance', 'inductance', 'emf_constant', 'mass', 'damping', 'load_force')
 

@@ -16,10 +16,10 @@ from emla_control.controller import InverseSystemController
 from emla_control.loop import run_closed_loop
 from emla_control.reference import StrokeReference
 from emla_control.scenarios import tracking_metrics
-from emla_identification.online import OnlineIdentifier
 from emla_core.parameters import TABLE1
-from emla_sim.plant import Plant
 from emla_core.recording import Recording
+from emla_identification.online import OnlineIdentifier
+from emla_sim.plant import Plant
 from emla_sim.sensor import Sensor, SensorConfig
 
 P = TABLE1

@@ -1,25 +1,21 @@
 """The model-discrepancy workflow on closed-loop data with a hidden effect it is not told about.
 
 Each effect of physics.md at a strength a real actuator could have (varied +-20 %), on actuators with
-parameters +-20 % around Table 1, under the PID position loop of datagen.py with 5 mA current noise and
+parameters +-20 % around Table 1, under the PID position loop of emla_sim.datasets with 5 mA current noise and
 1 um position quantisation: the effect must be named and the gap between model and measurement at least
 halved. Without an effect the answer must be `none`.
 """
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from datagen import closed_loop, random_parameters  # noqa: E402
-
-from emla_identification.discrepancy import CANDIDATES, Candidate, diagnose, register_candidate  # noqa: E402
-from emla_identification.discrepancy.residuals import binned, cross_correlation, whiteness  # noqa: E402
-from emla_sim.effects import (CoulombFriction, ForceConstantVariation, InductanceSaturation,  # noqa: E402
-                              ResistanceDrift, ReturnSpring)
-from emla_core.errors import InputError  # noqa: E402
-from emla_core.recording import Recording  # noqa: E402
+from emla_core.errors import InputError
+from emla_core.recording import Recording
+from emla_identification.discrepancy import CANDIDATES, Candidate, diagnose, register_candidate
+from emla_identification.discrepancy.residuals import binned, cross_correlation, whiteness
+from emla_sim.datasets import closed_loop, random_parameters
+from emla_sim.effects import (CoulombFriction, ForceConstantVariation, InductanceSaturation, ResistanceDrift,
+                              ReturnSpring)
 
 DURATION = 3.0
 

@@ -3,7 +3,7 @@
 Regenerate bags/example_discrepancy (1 s of closed-loop data at 10 kHz, Table 1 actuator, 5 mA / 1 um
 sensor, with 1 N of Coulomb friction the nominal model does not know about):
 
-    PYTHONPATH=emla_sim:emla_identification:emla_control .venv/bin/python tests/test_discrepancy_cli.py
+    .venv/bin/python tests/test_discrepancy_cli.py
 """
 import json
 import os
@@ -15,13 +15,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from datagen import closed_loop  # noqa: E402
-
-from emla_core.bag import write_recording  # noqa: E402
-from emla_sim.effects import CoulombFriction  # noqa: E402
-from emla_core.data import load  # noqa: E402
-from emla_core.recording import Recording, write_csv  # noqa: E402
+from emla_core.bag import write_recording
+from emla_core.data import load
+from emla_core.recording import Recording, write_csv
+from emla_sim.datasets import closed_loop
+from emla_sim.effects import CoulombFriction
 
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLE = REPO / 'bags' / 'example_discrepancy'

@@ -1,6 +1,6 @@
 """Grey-box identification against independent truth: closed-loop runs of the plant it has never seen.
 
-Truth is the plant's parameters (tests/datagen.py); tolerances are the issue's: R, L, Km, m, B within 2 %
+Truth is the plant's parameters (emla_sim.datasets); tolerances are the issue's: R, L, Km, m, B within 2 %
 and Fl within 0.1 N on noisy data, 0.1 % on noise-free data (discretisation consistency).
 """
 import dataclasses
@@ -8,16 +8,16 @@ import math
 
 import numpy as np
 import pytest
-from datagen import TABLE2, closed_loop, force_driven, random_parameters
 
 from emla_control import scenarios
-from emla_identification.greybox import identify
-from emla_identification.online import OnlineIdentifier
-from emla_identification.regressors import emf_lag
-from emla_sim.effects import ParameterChange
 from emla_core.errors import InputError
 from emla_core.parameters import TABLE1
 from emla_core.recording import Recording
+from emla_identification.greybox import identify
+from emla_identification.online import OnlineIdentifier
+from emla_identification.regressors import emf_lag
+from emla_sim.datasets import TABLE2, closed_loop, force_driven, random_parameters
+from emla_sim.effects import ParameterChange
 
 
 def assert_close(parameters, truth, relative, load_force):

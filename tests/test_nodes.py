@@ -10,14 +10,14 @@ import rclpy
 import yaml
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray
-from emla_msgs.msg import ParameterEstimate, SampleFrame
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 
 from emla_control.nodes.controller_node import ControllerNode
-from emla_identification.nodes.identifier_node import IdentifierNode
 from emla_core import messages, topics
 from emla_core.nodes import common
+from emla_identification.nodes.identifier_node import IdentifierNode
+from emla_msgs.msg import ParameterEstimate, SampleFrame
 from emla_sim.nodes.plant_node import PlantNode
 from emla_sim.nodes.sensor_node import SensorNode
 from ros_isolation import REPO, VENV_BIN, isolated_env, processes

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from emla_core.parameters import PARAMETER_NAMES, TABLE1, ActuatorParameters
 from emla_sim.effects import (EFFECTS, CoulombFriction, Effect, ForceConstantVariation, InductanceSaturation,
                               ParameterChange, ResistanceDrift, ReturnSpring, make_effect, register_effect)
-from emla_core.parameters import PARAMETER_NAMES, TABLE1, ActuatorParameters
 from emla_sim.plant import Plant
 
 TS = 1e-4

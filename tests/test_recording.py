@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from emla_core.errors import InputError
 from emla_core.data import load
+from emla_core.errors import InputError
 from emla_core.recording import Recording, read_csv, write_csv
 
 

@@ -4,25 +4,24 @@ import json
 
 import numpy as np
 import pytest
-from datagen import closed_loop, force_driven
 from mcap.writer import Writer
 
 from emla_cli.cli import main
 from emla_cli.commands import identify as identify_command
+from emla_core.bag import BagWriter, iter_chunks, read_bag, typestore, write_recording
+from emla_core.errors import InputError
+from emla_core.messages import frame_message, serialize
+from emla_core.parameters import TABLE1
+from emla_core.recording import Recording, read_csv, write_csv
+from emla_core.topics import SAMPLE_FRAME
 from emla_identification import streaming
 from emla_identification.greybox import identify
 from emla_identification.moments import LagMoments
 from emla_identification.offline import WeightedAccumulator, weighted_least_squares
 from emla_identification.online import OnlineIdentifier
-from emla_identification.regressors import HISTORY, instruments, rows
-from emla_identification.regressors import RowStream
+from emla_identification.regressors import HISTORY, RowStream, instruments, rows
 from emla_identification.streaming import identify_chunks
-from emla_core.bag import BagWriter, iter_chunks, read_bag, typestore, write_recording
-from emla_core.messages import frame_message, serialize
-from emla_core.topics import SAMPLE_FRAME
-from emla_core.errors import InputError
-from emla_core.parameters import TABLE1
-from emla_core.recording import Recording, read_csv, write_csv
+from emla_sim.datasets import closed_loop, force_driven
 
 UNEVEN = (1, 7, 1000, 3, 4096, 250)
 

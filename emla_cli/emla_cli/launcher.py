@@ -166,10 +166,10 @@ class Monitor:
 
     def __init__(self, node):
         from builtin_interfaces.msg import Time
-        from emla_msgs.msg import ParameterEstimate
         from rosgraph_msgs.msg import Clock
 
         from emla_core.nodes import common
+        from emla_msgs.msg import ParameterEstimate
 
         self.first_tick = self.last_tick = None    # (wall s, simulated ns) of /clock
         self.done = None                           # simulated ns of the plant's end

@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from emla_core.parameters import ActuatorParameters, PARAMETER_NAMES
+from emla_core.parameters import PARAMETER_NAMES, ActuatorParameters
 
 from . import inverse
 

@@ -15,10 +15,10 @@ import math
 
 import numpy as np
 
-from emla_identification.online import OnlineIdentifier
-from emla_sim.effects import ParameterChange, ResistanceDrift
 from emla_core.errors import InputError
 from emla_core.parameters import TABLE1, ActuatorParameters
+from emla_identification.online import OnlineIdentifier
+from emla_sim.effects import ParameterChange, ResistanceDrift
 from emla_sim.plant import Plant
 from emla_sim.sensor import Sensor, SensorConfig
 

@@ -8,9 +8,9 @@ import importlib
 
 import numpy as np
 from builtin_interfaces.msg import Time
-from emla_msgs.msg import ParameterEstimate, SampleFrame
 
 from emla_core.parameters import PARAMETER_NAMES
+from emla_msgs.msg import ParameterEstimate, SampleFrame
 
 
 def message_class(msgtype):

@@ -19,8 +19,8 @@ from scipy.linalg import expm
 
 from emla_core.parameters import TABLE1
 
-from .effects import AMBIENT_TEMPERATURE, Effect, coupled_rates, integrate_interval, integrate_sequence, \
-    kernel_vector, make_effect
+from .effects import (AMBIENT_TEMPERATURE, Effect, coupled_rates, integrate_interval, integrate_sequence, kernel_vector,
+                      make_effect)
 
 # RK4 sub-step bound: 10 sub-steps per 0.1 ms sample keep the integration error many orders of magnitude
 # below the sensor noise (5 mA, 1 um) and resolve the electrical time constant L/R = 0.4 ms.

@@ -32,8 +32,8 @@ def add_arguments(parser):
 
 
 def run(args):
-    from emla_identification.discrepancy import CANDIDATES, diagnose
     from emla_core.data import load
+    from emla_identification.discrepancy import CANDIDATES, diagnose
 
     names = None
     if args.candidates:

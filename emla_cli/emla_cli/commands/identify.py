@@ -131,10 +131,10 @@ def _greybox(data, model, forgetting, plot):
 def _record(data):
     """(the Recording, None) when it is shorter than LONG_SAMPLES, else (it or its first part, its consecutive
     parts)."""
-    from emla_identification.streaming import split
     from emla_core.bag import iter_chunks
     from emla_core.data import load
     from emla_core.recording import Recording
+    from emla_identification.streaming import split
     path = Path(data)
     if not (path.is_dir() or path.suffix == '.mcap'):  # CSV, read whole (as load() tells them apart)
         recording = load(path)

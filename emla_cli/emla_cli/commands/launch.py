@@ -38,8 +38,8 @@ def _interrupt(signum, frame):
 
 
 def run(args):
-    from emla_control import scenarios
     from emla_cli.launcher import LaunchError, launch, scenario_parameters
+    from emla_control import scenarios
 
     scenario = scenarios.get(args.scenario)
     duration = scenario.duration if args.duration is None else args.duration

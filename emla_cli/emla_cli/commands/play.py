@@ -70,9 +70,8 @@ class IdentifierPace:
     """--rate 0 flow control: how far a live identifier has got (its latest estimate's stamp)."""
 
     def __init__(self, node, executor, start):
-        from emla_msgs.msg import ParameterEstimate
-
         from emla_core.nodes import common
+        from emla_msgs.msg import ParameterEstimate
         self.executor = executor
         self.covered = start
         node.create_subscription(ParameterEstimate, topics.PARAMETERS_TOPIC, self._on_estimate, common.LATCHED_QOS)

@@ -9,13 +9,13 @@ import math
 import sys
 
 import numpy as np
-from emla_msgs.msg import ParameterEstimate
 
 from emla_control import controller as law
 from emla_control.reference import StrokeReference
 from emla_core import messages, topics
 from emla_core.nodes import common
 from emla_core.parameters import ActuatorParameters
+from emla_msgs.msg import ParameterEstimate
 
 BLOCK = 100  # control periods of reference evaluated at once
 # Closed-loop bandwidth for the default 1 ms control period, where it tracks best (12 um RMS on the default
@@ -50,7 +50,7 @@ class ControllerNode(common.EmlaNode):
     def __init__(self):
         super().__init__()
         p = common.declare(self, SPECS)
-        self.samples = common.period_samples(p.sample_period, p.control_period)
+        self.samples_per_period = common.period_samples(p.sample_period, p.control_period)
         self.sample_period = p.sample_period
         self.step_ns = topics.to_ns(p.sample_period)
         model = ActuatorParameters(**{name: getattr(p, name) for name in common.ACTUATOR_FIELDS})
@@ -59,7 +59,7 @@ class ControllerNode(common.EmlaNode):
             supply_voltage=model.supply_voltage, observer_bandwidth=p.observer_bandwidth,
             min_samples=p.min_samples, max_jump=p.max_jump)
         self.reference = StrokeReference(p.stroke, p.reference_period, p.transition)
-        self.period_ns = self.samples * self.step_ns
+        self.period_ns = self.samples_per_period * self.step_ns
         self.block = (None, None, None)  # (first period, references at the midpoints, reference samples)
         self.adaptation_ns = topics.to_ns(p.adaptation_period) if p.adaptive else None
         self.state = None  # (t_ns, current, position): the latest measured sample, not yet acted on
@@ -98,7 +98,7 @@ class ControllerNode(common.EmlaNode):
             self.started = True
         midpoint, samples = self.references(t // self.period_ns)
         voltage = self.controller.step(current, position, midpoint)
-        self.command['voltage'].publish(messages.frame_message(t, self.sample_period, np.full(self.samples, voltage)))
+        self.command['voltage'].publish(messages.frame_message(t, self.sample_period, np.full(self.samples_per_period, voltage)))
         self.command['reference'].publish(messages.frame_message(t, self.sample_period, samples))
 
     def references(self, period):
@@ -110,7 +110,7 @@ class ControllerNode(common.EmlaNode):
             first = period
             starts = (first + np.arange(BLOCK)) * self.period_ns * 1e-9
             midpoints = np.column_stack(self.reference(self.controller.midpoint_times(starts))).tolist()
-            samples = self.reference(starts[:, None] + self.sample_period * np.arange(self.samples))[0]
+            samples = self.reference(starts[:, None] + self.sample_period * np.arange(self.samples_per_period))[0]
             self.block = (first, midpoints, samples)
         return midpoints[period - first], samples[period - first]
 

@@ -14,8 +14,7 @@ from mcap.writer import CompressionType, Writer
 
 from emla_core.errors import InputError
 from emla_core.messages import estimate_message, frame_message, serialize
-from emla_core.topics import (PARAMETER_ESTIMATE, PARAMETERS_TOPIC, QOS, SAMPLE_FRAME, qos_kind, signal_topic,
-                              to_ns)
+from emla_core.topics import PARAMETER_ESTIMATE, PARAMETERS_TOPIC, QOS, SAMPLE_FRAME, qos_kind, signal_topic, to_ns
 
 from .schema import typestore
 

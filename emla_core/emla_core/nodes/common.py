@@ -70,7 +70,6 @@ import types
 
 import numpy as np
 import rclpy
-from emla_msgs.msg import SampleFrame
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.duration import Duration
 from rclpy.exceptions import ParameterException
@@ -84,6 +83,7 @@ from emla_core.errors import InputError
 from emla_core.messages import frame_data
 from emla_core.parameters import PARAMETER_UNITS, TABLE1
 from emla_core.topics import QOS, stamp_to_ns, to_ns
+from emla_msgs.msg import SampleFrame
 
 
 def qos_profile(kind):

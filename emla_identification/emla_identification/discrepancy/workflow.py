@@ -33,8 +33,8 @@ from emla_core.errors import InputError
 from .candidates import library
 from .data import Data, regression_rows
 from .fit import FOLDS, fit, physical
+from .predict import MECHANICAL_TIME, predict
 from .residuals import binned, cross_correlation, whiteness
-from .simulate import MECHANICAL_TIME, predict
 
 MIN_BLOCKS = 9
 MIN_SCORE = 0.05

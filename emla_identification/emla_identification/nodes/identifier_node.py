@@ -10,14 +10,14 @@ import sys
 import numpy as np
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from emla_msgs.msg import ParameterEstimate
 from std_msgs.msg import Header
 
-from emla_identification.physical import MODEL_PARAMETERS
-from emla_identification.online import OnlineIdentifier
-from emla_core.errors import InputError
 from emla_core import messages, topics
+from emla_core.errors import InputError
 from emla_core.nodes import common
+from emla_identification.online import OnlineIdentifier
+from emla_identification.physical import MODEL_PARAMETERS
+from emla_msgs.msg import ParameterEstimate
 
 SPECS = [
     common.Spec('sample_period', 1e-4, 'sample period Ts of the frames, s', 1e-6, 1e-2),
@@ -63,7 +63,7 @@ class IdentifierNode(common.EmlaNode):
         self.end = None  # end of the run, from /emla/plant/done
         self.estimates = self.create_publisher(ParameterEstimate, topics.PARAMETERS_TOPIC, common.LATCHED_QOS)
         self.diagnostics = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS_TOPIC, common.DIAGNOSTICS_QOS)
-        self.samples = common.AlignedSamples(self, topics.MEASURED_TOPICS, self.on_samples, p.sample_period,
+        self.measured = common.AlignedSamples(self, topics.MEASURED_TOPICS, self.on_samples, p.sample_period,
                                              self.publish_step)
         self.create_subscription(Time, topics.DONE_TOPIC, self.on_done, common.LATCHED_QOS)
 

@@ -7,15 +7,15 @@ import sys
 import time
 
 from builtin_interfaces.msg import Time
-from emla_msgs.msg import ParameterEstimate, SampleFrame
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 
-from emla_sim.effects import EFFECTS, ParameterChange, make_effect
-from emla_core.errors import InputError
 from emla_core import messages, topics
+from emla_core.errors import InputError
 from emla_core.nodes import common
 from emla_core.parameters import PARAMETER_NAMES, ActuatorParameters
+from emla_msgs.msg import ParameterEstimate, SampleFrame
+from emla_sim.effects import EFFECTS, ParameterChange, make_effect
 from emla_sim.plant import Plant
 
 SPECS = [
@@ -67,7 +67,7 @@ class PlantNode(common.EmlaNode):
     def __init__(self):
         super().__init__()
         p = common.declare(self, SPECS)
-        self.samples = common.period_samples(p.sample_period, p.control_period)
+        self.samples_per_period = common.period_samples(p.sample_period, p.control_period)
         self.step = topics.to_ns(p.sample_period)
         self.periods = round(p.duration / p.control_period) if p.duration else None
         if self.periods == 0:
@@ -94,7 +94,7 @@ class PlantNode(common.EmlaNode):
 
     @property
     def now(self):
-        return self.period * self.samples * self.step
+        return self.period * self.samples_per_period * self.step
 
     def try_start(self):
         if any(self.count_subscribers(topic) < n for topic, n in self.awaited_readers.items()):
@@ -110,9 +110,9 @@ class PlantNode(common.EmlaNode):
 
     def on_command(self, msg):
         stamp = topics.stamp_to_ns(msg.header.stamp)
-        if stamp < self.now or len(msg.data) != self.samples:
+        if stamp < self.now or len(msg.data) != self.samples_per_period:
             self.get_logger().error(f'ignored a voltage command stamped {stamp} ns with {len(msg.data)} samples '
-                                    f'(expected {self.samples} from {self.now} ns on)')
+                                    f'(expected {self.samples_per_period} from {self.now} ns on)')
             return
         self.commands[stamp] = messages.frame_data(msg)
         if self.barrier.is_canceled():

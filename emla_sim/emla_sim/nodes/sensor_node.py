@@ -5,9 +5,9 @@ voltage frames pass unchanged (the DSP knows what it applied).
 """
 import sys
 
-from emla_msgs.msg import SampleFrame
 from emla_core import messages, topics
 from emla_core.nodes import common
+from emla_msgs.msg import SampleFrame
 from emla_sim.sensor import Sensor, SensorConfig
 
 SPECS = [

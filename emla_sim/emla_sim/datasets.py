@@ -7,8 +7,8 @@ small voltage dither; emla_sim.Sensor adds 5 mA current noise and 1 um position 
 import numpy as np
 
 from emla_core.parameters import PARAMETER_NAMES, TABLE1
-from emla_sim.plant import Plant
 from emla_core.recording import Recording
+from emla_sim.plant import Plant
 from emla_sim.sensor import Sensor, SensorConfig
 
 # Gains for Table 1 (about 200 Hz position bandwidth); they stay stable for +-30 % parameters and m x 2.
