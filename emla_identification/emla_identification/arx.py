@@ -106,7 +106,44 @@ class ArxModel:
 
 
 def identify_arx(u, y, na, nb, nk, forgetting=1.0, initial_covariance=1e6):
-    """RLS over the whole record from theta = 0, P = initial_covariance I; fit and MSE of the final model."""
+    """Identify a black-box ARX model A(q) y(t) = B(q) u(t - nk) by recursive least squares over a record.
+
+    y(t) + a1 y(t-1) + ... + a_na y(t-na) = b1 u(t-nk) + ... + b_nb u(t-nk-nb+1); the recursion starts from
+    theta = 0 and P = initial_covariance I, so with forgetting 1 it matches batch least squares.
+
+    Parameters
+    ----------
+    u, y : array_like
+        Input and output, 1-D, uniformly sampled, of equal length (any units).
+    na, nb, nk : int
+        Orders: output lags, input lags and the input delay in samples (the DC-motor paper uses 4, 3, 1).
+    forgetting : float, optional
+        Forgetting factor lambda in (0, 1] (memory about 1 / (1 - lambda) samples).
+    initial_covariance : float, optional
+        P0 = initial_covariance I.
+
+    Returns
+    -------
+    ArxModel
+        `a` = [1, a1, ...], `b`, `nk`, `poles()`, `zeros()`, and `fit_percent`, `mse` of its one-step
+        predictions on the record.
+
+    Raises
+    ------
+    ValueError
+        Bad orders, or a record too short for them.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> u = np.random.default_rng(0).standard_normal(500)
+    >>> y = np.zeros(500)
+    >>> for t in range(1, 500):
+    ...     y[t] = 0.9 * y[t - 1] + 0.5 * u[t - 1]
+    >>> model = identify_arx(u, y, 1, 1, 1)
+    >>> np.round(model.a, 6).tolist(), np.round(model.b, 6).tolist()
+    ([1.0, -0.9], [0.5])
+    """
     Phi, Y = arx_regressors(u, y, na, nb, nk)
     if len(Y) == 0:
         raise ValueError(f'record of {len(y)} samples is too short for ARX({na}, {nb}, {nk})')

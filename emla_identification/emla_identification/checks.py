@@ -10,15 +10,15 @@ MIN_ROWS = 16           # regression rows (samples - HISTORY) below which a reco
 _MAX_CONDITION = 1e12   # normalised information matrix above this: a parameter is not excited
 
 
-def checked(recording, model, forgetting):
+def checked(recording, model, forgetting, memory_time=None):
     """(model, regression kinds, lambda) for this recording, or InputError naming its source and the problem."""
-    model, kinds, lam = setup(recording, model, forgetting)
+    model, kinds, lam = setup(recording, model, forgetting, memory_time)
     check_finite(recording, kinds)
     check_length(len(recording), model, recording.source)
     return model, kinds, lam
 
 
-def setup(recording, model, forgetting):
+def setup(recording, model, forgetting, memory_time=None):
     """(model, regression kinds, lambda) for the signals of `recording` (all of it, or its first part)."""
     source = recording.source or 'recording'
     model = model or default_model(recording.signals)
@@ -27,7 +27,7 @@ def setup(recording, model, forgetting):
                          f'has {", ".join(recording.signals) or "none"}')
     try:
         kinds = regressions_for(model, recording.signals)
-        lam = forgetting_factor(forgetting)
+        lam = forgetting_factor(forgetting, memory_time, recording.sample_period)
     except ValueError as exc:
         raise InputError(f'{source}: {exc}') from None
     return model, kinds, lam

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from emla_core.data import as_recording
 from emla_core.errors import InputError
 
 from . import offline
@@ -45,14 +46,65 @@ class GreyBoxResult:
                 'parameters': dict(self.parameters), 'std': dict(self.std)}
 
 
-def identify(recording, model=None, forgetting=1.0, *, initial_covariance=1e6, points=200, progress=None):
-    """Grey-box parameters of a whole Recording (default model: full for coil signals, mechanical for force).
+def identify(data=None, model=None, forgetting=1.0, *, memory_time=None, sample_period=None, voltage=None,
+             current=None, position=None, force=None, initial_covariance=1e6, points=200, progress=None):
+    """Identify the physical parameters of an actuator from a whole record of its signals.
 
-    The result's trajectory holds the estimates after about `points` growing parts of the record (the
-    last one is the final estimate), for convergence plots. progress: None or a function called with the
-    fraction of the work done (0..1) as it goes.
+    The grey-box model is u = R I + L dI/dt + Km v (electrical) and m dv/dt = Km I - B v - Fl (mechanical),
+    identified from its exact zero-order-hold discretisation (the electrical equation by instrumental
+    variables, which keeps closed-loop sensor noise from biasing it), with one-sigma uncertainties from a
+    model of the sensor noise.
+
+    Parameters
+    ----------
+    data : Recording, str or Path, optional
+        The record: a Recording (emla_core.Recording), or a CSV file or ROS 2 bag to load. Leave it out to
+        pass the signals as arrays instead.
+    model : {'full', 'electrical', 'mechanical'}, optional
+        Which parameters to report: all six, R, L, Km only, or m, B, Fl only. Each needs voltage, current
+        and position; mechanical also works from force and position alone. Default: full with coil signals,
+        mechanical with a force signal.
+    forgetting : float, optional
+        Exponential forgetting factor lambda in (0, 1]; 1 (default) weighs every sample equally.
+    memory_time : float, optional
+        Memory time constant tau in s instead of `forgetting` (lambda = 1 - Ts / tau).
+    sample_period : float, optional
+        Sample period Ts in s of the arrays (required with arrays; a Recording or file carries its own).
+    voltage, current, position, force : array_like, optional
+        Uniformly sampled signals of equal length in V, A, m and N: the coil voltage as applied over each
+        sample interval (held), the coil current and the position at the interval's start.
+    initial_covariance : float, optional
+        Prior covariance of the regression coefficients (P0 = c I).
+    points : int, optional
+        About how many estimates the convergence trajectory holds.
+    progress : callable, optional
+        Called with the fraction of the work done (0..1) as it goes.
+
+    Returns
+    -------
+    GreyBoxResult
+        `parameters` and `std` ({name: value} in SI units: resistance ohm, inductance H, emf_constant V s/m
+        = N/A, mass kg, damping N s/m, load_force N), `covariance`, `samples`, and the `trajectory` of the
+        estimates over growing parts of the record (the last one is the final estimate); `to_dict()` gives
+        the JSON of `emla identify`.
+
+    Raises
+    ------
+    InputError
+        Missing or non-finite signals, too few samples, data that do not excite the model, or an
+        unreadable file; the message names the source and the problem.
+
+    Examples
+    --------
+    >>> from emla_sim.datasets import closed_loop
+    >>> recording, truth = closed_loop(duration=0.5)          # simulated closed-loop data, Table 1 actuator
+    >>> result = identify(sample_period=recording.sample_period, **recording.signals)
+    >>> round(result.parameters['resistance'], 2), round(result.parameters['mass'], 4)
+    (4.0, 0.036)
     """
-    model, kinds, lam = checked(recording, model, forgetting)
+    recording = as_recording(data, sample_period=sample_period, voltage=voltage, current=current,
+                             position=position, force=force)
+    model, kinds, lam = checked(recording, model, forgetting, memory_time)
     source = recording.source or 'recording'
     report = progress or (lambda fraction: None)
     n, ts = len(recording), recording.sample_period

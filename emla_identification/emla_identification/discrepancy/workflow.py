@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
+from emla_core.data import as_recording
 from emla_core.errors import InputError
 
 from .candidates import library
@@ -135,11 +136,45 @@ def _rounded(parameters):
     return {k: float(f'{v:.6g}') for k, v in parameters.items()}
 
 
-def diagnose(recording, names=None):
-    """The Diagnosis of a Recording (t, voltage, current, position or t, force, position).
+def diagnose(data=None, names=None, *, sample_period=None, voltage=None, current=None, position=None, force=None):
+    """Find which effect the two-equation actuator model is missing in a record, add it and show the gap shrink.
 
-    names: the registered candidates to consider (default: all)."""
-    data = Data.from_recording(recording)
+    The nominal model is identified, each subsystem is predicted from its measured inputs, and each candidate
+    effect (coulomb_friction, return_spring, resistance_drift, inductance_saturation, force_constant_variation,
+    sensor_delay, and any added with `register_candidate`) is judged by the share of the held-out prediction
+    error it removes; the best one is named only when that is significant.
+
+    Parameters
+    ----------
+    data : Recording, str or Path, optional
+        The record (a Recording, or a CSV file or ROS 2 bag to load); leave it out to pass arrays instead.
+    names : sequence of str, optional
+        The registered candidates to consider (default: all).
+    sample_period : float, optional
+        Sample period in s of the arrays.
+    voltage, current, position, force : array_like, optional
+        Uniformly sampled signals in V, A, m and N: voltage, current and position, or force and position.
+
+    Returns
+    -------
+    Diagnosis
+        `to_dict()` gives the `emla discrepancy` JSON (missing_effect, candidates, gap before and after,
+        added parameters); `write_report(diagnosis, directory)` writes the Markdown report with plots.
+
+    Raises
+    ------
+    InputError
+        Unusable data, or data from which the nominal model cannot be identified.
+
+    Examples
+    --------
+    >>> from emla_identification.discrepancy import diagnose
+    >>> diagnosis = diagnose('bags/example_discrepancy')            # doctest: +SKIP
+    >>> diagnosis.to_dict()['missing_effect']                      # doctest: +SKIP
+    'coulomb_friction'
+    """
+    data = Data.from_recording(as_recording(data, sample_period=sample_period, voltage=voltage, current=current,
+                                            position=position, force=force))
     with np.errstate(all='ignore'):   # degenerate data show up as non-finite or unphysical estimates
         nominal = fit(data)
         if not physical(nominal.parameters):
