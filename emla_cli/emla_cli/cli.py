@@ -1,4 +1,8 @@
-"""The `emla` command line: one entry point, one module per subcommand in `emla_cli.commands`."""
+"""The `emla` command line: one entry point, one module per subcommand in `emla_cli.commands`.
+
+Each command module has HELP (one line), description() (the user's text of `emla COMMAND --help`, wrapped
+by hand), add_arguments(parser) and run(args) -> exit status.
+"""
 import argparse
 import importlib
 import os
@@ -28,7 +32,7 @@ COMMANDS = {
 
 def _version():
     try:
-        return version('emla_control')
+        return version('emla_cli')
     except PackageNotFoundError:
         return 'unknown (not installed)'
 
@@ -46,7 +50,8 @@ def build_parser(names=tuple(COMMANDS)):
     sub = parser.add_subparsers(dest='command', metavar='COMMAND')
     for name in names:
         module = _command_module(name)
-        module.add_arguments(sub.add_parser(name, help=module.HELP, description=module.__doc__))
+        module.add_arguments(sub.add_parser(name, help=module.HELP, description=module.description(),
+                                            formatter_class=argparse.RawDescriptionHelpFormatter))
     return parser
 
 

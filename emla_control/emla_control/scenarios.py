@@ -12,6 +12,7 @@ a few memory times to follow it (the response during that transient is in the ru
 """
 import dataclasses
 import math
+import textwrap
 
 import numpy as np
 
@@ -119,6 +120,14 @@ SCENARIOS = {
         'default', 'Table 1 actuator tracking the 40 ms stroke cycle under adaptive inverse-system control',
         duration=1.0, evaluate_from=0.2, cases=dict(DEFAULT_CASES)),
 }
+
+
+def catalogue(cases=False, width=106):
+    """The scenarios for a user, a paragraph each: name, default duration, what it does (and its cases)."""
+    return '\n'.join(textwrap.fill(f'{s.name:<16} {s.duration:g} s: {s.description}'
+                                   + (f' (cases: {", ".join(s.cases)})' if cases else ''), width,
+                                   initial_indent='  ', subsequent_indent=' ' * 19)
+                     for s in SCENARIOS.values())
 
 
 def get(name):

@@ -61,11 +61,11 @@ def as_recording(data=None, *, sample_period=None, start_time=0.0, **signals):
     """
     from emla_core.recording import Recording
 
-    if data is not None:
-        if signals:
-            raise InputError(f'give either data or signal arrays, not both (got data and {", ".join(signals)})')
-        return data if isinstance(data, Recording) else load(data)
     given = {name: values for name, values in signals.items() if values is not None}
+    if data is not None:
+        if given:
+            raise InputError(f'give either data or signal arrays, not both (got data and {", ".join(given)})')
+        return data if isinstance(data, Recording) else load(data)
     unknown = sorted(set(given) - set(SIGNAL_NAMES))
     if unknown:
         raise InputError(f'unknown signal(s) {", ".join(unknown)}; known: {", ".join(SIGNAL_NAMES)}')

@@ -14,8 +14,17 @@ import yaml
 HELP = 'Print the messages of a topic as YAML.'
 
 
+def description():
+    return """\
+Print the messages of a topic as YAML documents, like `ros2 topic echo` (long arrays shortened unless -f).
+
+The message type and QoS are taken from the topic's publishers. Ends after --count messages, or with exit
+status 1 when no message came for --timeout seconds.
+"""
+
+
 def add_arguments(parser):
-    parser.add_argument('topic')
+    parser.add_argument('topic', help='topic name, e.g. /emla/parameters')
     parser.add_argument('--count', '-n', type=int, default=0, metavar='N',
                         help='exit after N messages (default: until interrupted)')
     parser.add_argument('--timeout', type=float, default=10.0, metavar='S',

@@ -27,6 +27,27 @@ from emla_core.errors import InputError
 from .output import discard, json_text, publish, stage
 
 HELP = 'Identify actuator parameters (grey-box) or an ARX model from a CSV file or a bag.'
+
+
+def description():
+    return """\
+Identify an actuator's parameters from a recording (CSV file, rosbag2 directory or .mcap file).
+
+Grey-box models, from u = R I + L dI/dt + Km v and m dv/dt = Km I - B v - Fl (SI units):
+  full        R, L, Km, m, B, Fl (needs voltage, current, position)
+  electrical  R, L, Km           (the same signals)
+  mechanical  m, B, Fl           (the same signals, or force and position)
+Default: full with voltage/current/position, mechanical with force/position. Velocity comes from position.
+Each parameter comes with its one-sigma uncertainty.
+
+Black box (--model arx): y(t) + a1 y(t-1) + ... = b1 u(t-nk) + ... by recursive least squares; default
+input voltage, output current, orders 2 2 1 (the coil current's exact structure). With --forgetting 1 it
+equals batch least squares.
+
+Long records (a million samples and more) are read and identified in parts with bounded memory; the
+result is the same. The JSON goes to stdout unless --json is given; --plot draws the estimates converging
+(and the true values, when a simulated bag carries them).
+"""
 MODELS = ('electrical', 'mechanical', 'full', 'arx')
 DEFAULT_ORDERS = (2, 2, 1)
 ARX_DEFAULT = ('voltage', 'current')
@@ -42,7 +63,7 @@ def add_arguments(parser):
     parser.add_argument('--orders', nargs=3, metavar=('NA', 'NB', 'NK'),
                         help='ARX orders: output lags, input lags, input delay in samples (default 2 2 1)')
     parser.add_argument('--forgetting', default='1', metavar='LAMBDA',
-                        help='RLS forgetting factor in (0, 1] (default 1: no forgetting)')
+                        help='forgetting factor in (0, 1] (default 1: no forgetting; memory 1/(1 - LAMBDA) samples)')
     parser.add_argument('--input', metavar='COL', help='ARX input column (default voltage)')
     parser.add_argument('--output', metavar='COL', help='ARX output column (default current)')
     parser.add_argument('--json', metavar='FILE', help='write the result here instead of stdout')

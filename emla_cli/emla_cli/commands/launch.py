@@ -17,9 +17,23 @@ from .output import emit_json
 HELP = 'Run the plant, sensor, identifier and controller nodes as a ROS 2 graph and record a bag.'
 
 
+def description():
+    from emla_control.scenarios import catalogue
+    return f"""\
+Run the plant, sensor, identifier and controller nodes as a ROS 2 graph of separate processes and record
+every topic to a bag.
+
+The graph runs in its own ROS domain (this host only), in simulated time with a deterministic lockstep,
+until the plant has run --duration and the identifier has published its final estimate; then every process
+is stopped. Progress goes to stderr; the summary JSON (final estimates, true parameters, real-time factor,
+node pids) to --json or stdout. Scenarios (the graph runs the adaptive case):
+{catalogue()}
+"""
+
+
 def add_arguments(parser):
-    parser.add_argument('scenario', nargs='?', default='default', help='scenario name (default: default)')
-    parser.add_argument('--duration', type=float, metavar='S', help="simulated time, s (default: the scenario's)")
+    parser.add_argument('scenario', nargs='?', default='default', help='scenario name (default: default; see above)')
+    parser.add_argument('--duration', type=float, metavar='S', help="simulated time, s (default: the scenario's, above)")
     parser.add_argument('--bag', metavar='DIR', help='bag directory to record (default: bags/<scenario>-<time>)')
     parser.add_argument('--json', metavar='FILE', help='write the summary here (default: stdout)')
 

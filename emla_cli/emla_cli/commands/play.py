@@ -18,6 +18,18 @@ from emla_core.errors import InputError
 from emla_core.topics import PARAMETER_ESTIMATE, SAMPLE_FRAME, stamp_to_ns
 
 HELP = 'Republish a recorded bag with its timing (or faster).'
+
+
+def description():
+    return """\
+Republish a bag's SampleFrame and ParameterEstimate topics with their recorded timing, and /clock.
+
+Messages go out in time order, paced by their stamps scaled by --rate. With --rate 0 they go as fast as a
+live identifier node takes them (at most 50 ms of bag time ahead of its latest estimate; the bag's own
+/emla/parameters is then not played), or all at once without one. /clock follows the stamps, so nodes with
+use_sim_time run on the bag's time. At the end /emla/plant/done carries the end of the data, so a live
+identifier publishes its final estimate.
+"""
 PLAYED_TYPES = (SAMPLE_FRAME, PARAMETER_ESTIMATE)
 LEAD = 50_000_000        # ns of bag time --rate 0 runs ahead of the identifier (well within the 1000-frame queues)
 STALL_TIMEOUT = 10.0     # s without progress of the identifier before --rate 0 gives up

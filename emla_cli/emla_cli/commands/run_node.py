@@ -15,6 +15,15 @@ NODE_PACKAGES = ('emla_core', 'emla_sim', 'emla_identification', 'emla_control')
 HELP = 'Run one node of the suite in this process.'
 
 
+def description():
+    return """\
+Run one node of the suite in this process, as `ros2 run PACKAGE NODE` does on a full ROS 2 install.
+
+The node reads a ROS 2 YAML params file (--params-file; each package's config/NODE.yaml holds the
+defaults). SIGINT/SIGTERM stop it cleanly with exit status 0; bad parameters give one line and status 2.
+"""
+
+
 def nodes():
     """{node name: console-script entry point} of the installed node packages."""
     return {ep.name: ep for ep in entry_points(group='console_scripts')

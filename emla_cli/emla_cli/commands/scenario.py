@@ -16,8 +16,23 @@ from .output import emit_json, write_file
 HELP = 'Run a closed-loop adaptive-control comparison (nominal / changed fixed / changed adaptive).'
 
 
+def description():
+    from emla_control.scenarios import catalogue
+    return f"""\
+Run a closed-loop adaptive-control comparison in this process and report the tracking of each case:
+  nominal           plant unchanged, controller with the exact parameters
+  changed_fixed     plant changed, controller not updated
+  changed_adaptive  plant changed, controller updated from the online identifier
+Scenarios:
+{catalogue(cases=True)}
+Prints {{"scenario": NAME, "cases": {{CASE: {{rms_tracking_error, max_overshoot, settling_time, peak_current}}}}}}
+in SI units (or writes it with --json); --plot draws position, tracking error and current of each case over
+the last cycle, as Figures 6-7 of the EMLA paper.
+"""
+
+
 def add_arguments(parser):
-    parser.add_argument('name', metavar='NAME', help='resistance_rise, mass_rise, thermal_drift or default')
+    parser.add_argument('name', metavar='NAME', help='scenario name (see above)')
     parser.add_argument('--json', metavar='FILE', help='write the metrics here instead of printing them')
     parser.add_argument('--plot', metavar='FILE.png', help='write a plot of the cases')
 

@@ -17,10 +17,21 @@ from emla_core.errors import InputError
 HELP = 'Simulate a scenario in-process and record it as a bag.'
 
 
+def description():
+    from emla_control.scenarios import catalogue
+    return f"""\
+Simulate a scenario in this process (no ROS graph, many times faster than real time) and record it as a
+bag laid out like the one `emla launch` records: the same topics, 1 ms frames of 10 kHz samples, and
+parameter estimates with their full covariance every 10 ms. `emla play` can feed it to a live identifier;
+`emla identify` re-identifies it. Scenarios (the adaptive case is simulated):
+{catalogue()}
+"""
+
+
 def add_arguments(parser):
     parser.add_argument('scenario', nargs='?', default='default',
-                        help='resistance_rise, mass_rise, thermal_drift or default (default: default)')
-    parser.add_argument('--duration', type=float, metavar='S', help="simulated time, s (default: the scenario's)")
+                        help='scenario name (default: default; see above)')
+    parser.add_argument('--duration', type=float, metavar='S', help="simulated time, s (default: the scenario's, above)")
     parser.add_argument('--bag', required=True, metavar='DIR', help='bag directory to write (new or empty)')
 
 

@@ -1,0 +1,124 @@
+"""The house: package dependencies point one way, no import cycles, a public API a notebook user can find
+(docstrings, __all__, the README's example runs, docstring examples hold)."""
+import ast
+import doctest
+import importlib
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from ros_isolation import REPO
+
+PACKAGES = ('emla_core', 'emla_sim', 'emla_identification', 'emla_control', 'emla_cli')
+# Which packages each may import (besides itself). control uses the simulated plant for its in-process loop.
+ALLOWED = {
+    'emla_core': set(),
+    'emla_sim': {'emla_core'},
+    'emla_identification': {'emla_core'},
+    'emla_control': {'emla_core', 'emla_identification', 'emla_sim'},
+    'emla_cli': {'emla_core', 'emla_sim', 'emla_identification', 'emla_control'},
+}
+
+
+def modules():
+    """{dotted module name: source path} of the five Python packages in the repository."""
+    found = {}
+    for package in PACKAGES:
+        for path in sorted((REPO / package / package).rglob('*.py')):
+            parts = path.relative_to(REPO / package).with_suffix('').parts
+            found['.'.join(parts[:-1] if parts[-1] == '__init__' else parts)] = path
+    return found
+
+
+def imports(name, path):
+    """The modules of the suite that module `name` imports (anywhere in it, lazily or not)."""
+    package = name if path.name == '__init__.py' else name.rsplit('.', 1)[0]
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            found.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ''
+            if node.level:
+                base = '.'.join(package.split('.')[:len(package.split('.')) - node.level + 1] + ([base] if base else []))
+            found.add(base)
+            found.update(f'{base}.{alias.name}' for alias in node.names)
+    return {m for m in found if m.split('.')[0] in PACKAGES}
+
+
+def test_packages_depend_only_one_way():
+    wrong = [(name, target) for name, path in modules().items() for target in imports(name, path)
+             if target.split('.')[0] != name.split('.')[0] and target.split('.')[0] not in ALLOWED[name.split('.')[0]]]
+    assert wrong == []
+
+
+def test_no_import_cycle_between_modules():
+    known = modules()
+    graph = {name: {t for t in imports(name, path) if t in known and t != name} for name, path in known.items()}
+    # a package's __init__ re-exporting its modules is not a cycle with them: drop the edges into a package
+    # from its own modules
+    graph = {name: {t for t in targets if not name.startswith(t + '.')} for name, targets in graph.items()}
+    state, cycles = {}, []
+
+    def visit(node, stack):
+        state[node] = 'open'
+        stack.append(node)
+        for target in sorted(graph[node]):
+            if state.get(target) == 'open':
+                cycles.append(stack[stack.index(target):] + [target])
+            elif target not in state:
+                visit(target, stack)
+        stack.pop()
+        state[node] = 'done'
+
+    for node in sorted(graph):
+        if node not in state:
+            visit(node, [])
+    assert cycles == []
+
+
+def test_the_emla_command_lives_in_the_cli_package():
+    setups = {package: (REPO / package / 'setup.py').read_text() for package in PACKAGES}
+    assert [p for p, text in setups.items() if re.search(r"'emla = ", text)] == ['emla_cli']
+
+
+@pytest.mark.parametrize('package', PACKAGES)
+def test_every_package_says_what_it_holds(package):
+    module = importlib.import_module(package)
+    assert module.__doc__ and len(module.__doc__) > 80
+    assert isinstance(module.__all__, list)
+    for name in module.__all__:
+        value = getattr(module, name)
+        if callable(value):
+            assert value.__doc__, f'{package}.{name} has no docstring'
+
+
+def test_help_of_identify_explains_what_to_pass():
+    out = subprocess.run([sys.executable, '-c', 'from emla_identification import identify; help(identify)'],
+                         capture_output=True, text=True, timeout=60, check=True).stdout
+    for words in ('Parameters', 'Returns', 'Raises', 'Examples', 'voltage, current, position, force',
+                  'sample_period', 'Recording'):
+        assert words in out
+
+
+@pytest.mark.parametrize('module', ['emla_identification.greybox', 'emla_identification.arx', 'emla_sim',
+                                    'emla_core.data'])
+def test_docstring_examples_hold(module):
+    failed, attempted = doctest.testmod(importlib.import_module(module))
+    assert failed == 0
+
+
+def test_the_readme_python_example_runs_and_finds_the_truth(tmp_path):
+    readme = (REPO / 'README.md').read_text()
+    section = readme[readme.index('## Python API'):]
+    code = re.search(r'```python\n(.*?)```', section, re.S).group(1)
+    out = subprocess.run([sys.executable, '-c', code], cwd=REPO, capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    lines = out.stdout.splitlines()
+    for line in lines[:5]:          # R, L, Km, m, B within 0.5 % of the truth the example prints beside them
+        name, value, _, std, _, true = line.replace(')', '').split()
+        assert float(value) == pytest.approx(float(true), rel=5e-3), line
+    assert lines[-1] == 'coulomb_friction'
