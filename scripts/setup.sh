@@ -23,6 +23,9 @@ if [ ! -x "$VENV/bin/python" ]; then
   "$PYTHON" -m venv "$VENV"
 fi
 mkdir -p "$STAMPS"
+# One set-up at a time per venv (two test runs or shells may start it together).
+exec 9>"$VENV/.setup.lock"
+flock 9
 # pip warns about every local index mirror it cannot use; keep the output to what matters.
 pip_install() {
   "$VENV/bin/python" -m pip --disable-pip-version-check -q install "$@" 2>&1 | { grep -v 'is ignored: it is neither' || true; }
