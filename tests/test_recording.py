@@ -4,7 +4,8 @@ import pytest
 
 from emla_core.data import load
 from emla_core.errors import InputError
-from emla_core.recording import Recording, read_csv, write_csv
+from emla_core.data import read_csv
+from emla_core.recording import Recording, write_csv
 
 
 def test_csv_round_trip(tmp_path):

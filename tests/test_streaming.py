@@ -12,7 +12,8 @@ from emla_core.bag import BagWriter, iter_chunks, read_bag, typestore, write_rec
 from emla_core.errors import InputError
 from emla_core.messages import frame_message, serialize
 from emla_core.parameters import TABLE1
-from emla_core.recording import Recording, read_csv, write_csv
+from emla_core.data import read_csv
+from emla_core.recording import Recording, write_csv
 from emla_core.topics import SAMPLE_FRAME
 from emla_identification import streaming
 from emla_identification.greybox import identify

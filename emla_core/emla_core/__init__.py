@@ -15,7 +15,8 @@ Examples
 from emla_core.data import load
 from emla_core.errors import InputError
 from emla_core.parameters import PARAMETER_NAMES, PARAMETER_UNITS, TABLE1, ActuatorParameters
-from emla_core.recording import Recording, read_csv, write_csv
+from emla_core.data import read_csv
+from emla_core.recording import Recording, write_csv
 
 __all__ = ['ActuatorParameters', 'InputError', 'PARAMETER_NAMES', 'PARAMETER_UNITS', 'Recording', 'TABLE1', 'load',
            'read_csv', 'write_csv']

@@ -1,39 +1,137 @@
-"""Loading measured data into a Recording, whatever file it comes in."""
+"""Loading measured data into a Recording, whatever file it comes in and whatever the user called things.
+
+Files: CSV (a header row), MATLAB .mat (v5 or v7.3; variables as vectors), rosbag2 directories (MCAP or
+sqlite3) and bare .mcap files. Columns (or variables) are matched to the suite's signals (t, voltage,
+current, position, velocity, force) by `columns` ('NAME=SOURCE,...'), else by their names (also the usual
+short ones: time, u, i, x, v, f); units come from `units` ('NAME=UNIT,...'), else from the header
+('x_mm', 'x [mm]', 'x (mm)'), else SI. What was understood is kept in `recording.inputs` and how time was
+read in `recording.sampling`, for the commands' JSON.
+"""
 from pathlib import Path
 
 import numpy as np
 
 from emla_core.errors import InputError
-from emla_core.recording import read_csv
+from emla_core.recording import Recording
+from emla_core.sampling import steady_period
+from emla_core.units import SIGNAL_UNITS, parse_assignments, parse_unit, split_header
+
+SIGNAL_NAMES = ('voltage', 'current', 'position', 'velocity', 'force')
+# Column names (without their unit) taken for a signal when no --columns says otherwise; case is ignored.
+ALIASES = {'t': ('t', 'time'), 'voltage': ('voltage', 'u'), 'current': ('current', 'i'),
+           'position': ('position', 'x'), 'velocity': ('velocity', 'v'), 'force': ('force', 'f')}
+BAG_SUFFIXES = ('.mcap', '.db3')
 
 
-def load(path):
-    """A Recording from a CSV file, a rosbag2 directory or a bare .mcap file.
+def load(path, *, columns=None, units=None, topics=None, sample_period=None):
+    """A Recording of the data in a CSV file, MATLAB file, rosbag2 directory or .mcap file.
 
     Parameters
     ----------
     path : str or Path
-        A CSV file with a header row and a `t` column in seconds (uniform sampling), or a bag.
+        The file or bag directory.
+    columns : str, optional
+        'NAME=SOURCE[,NAME=SOURCE...]': which CSV column or MAT variable holds each signal NAME (t, voltage,
+        current, position, velocity, force). Unnamed signals are found by their column names.
+    units : str, optional
+        'NAME=UNIT[,...]': each signal's unit (s, ms, us, m, mm, um, A, mA, V, mV, N, rad, deg, ... or a factor
+        to SI); a leading minus flips the sign (current=-A). Wins over a unit in the column header.
+    topics : str, optional
+        'NAME=TOPIC[:FIELD[INDEX]][,...]' of a bag whose topics are not the suite's (see emla_core.bag.foreign).
+    sample_period : float, optional
+        Sample period in s for data without a time column.
 
     Returns
     -------
     Recording
+        With `inputs` (signal -> source, unit, scale) and `sampling` (period, jitter) saying what was read.
 
     Raises
     ------
     InputError
-        The file is missing, unreadable, or its data are unusable (the message names the file and problem).
+        The file is missing or unreadable, or its data unusable (the message names the file and problem).
     """
     path = Path(path)
-    if path.is_dir() or path.suffix == '.mcap':
-        from emla_core.bag import read_bag
-        return read_bag(path).recording
     if not path.exists():
         raise InputError(f'{path}: no such file or directory')
-    return read_csv(path)
+    if path.is_dir() or path.suffix in BAG_SUFFIXES:
+        for flag, value in (('--columns', columns), ('--sample-period', sample_period)):
+            if value is not None:
+                raise InputError(f'{path}: {flag} applies to CSV and MAT files; map bag topics with --topics')
+        from emla_core.bag.foreign import load_bag
+        return load_bag(path, topics, units)
+    if topics is not None:
+        raise InputError(f'{path}: --topics applies to bags; map columns with --columns')
+    if path.suffix.lower() == '.mat':
+        from emla_core.tables import read_mat_columns
+        return from_columns(read_mat_columns(path), str(path), columns=columns, units=units,
+                            sample_period=sample_period, row='element', first=1)
+    return read_csv(path, columns=columns, units=units, sample_period=sample_period)
 
 
-SIGNAL_NAMES = ('voltage', 'current', 'position', 'velocity', 'force')
+def read_csv(path, *, columns=None, units=None, sample_period=None):
+    """A Recording from a CSV file with a header row (see `load` for the mapping of columns and units)."""
+    from emla_core.tables import read_csv_columns
+    return from_columns(read_csv_columns(path), str(path), columns=columns, units=units,
+                        sample_period=sample_period, row='data row', first=1)
+
+
+def from_columns(table, source, *, columns=None, units=None, sample_period=None, row='sample', first=0):
+    """A Recording of named columns {name: array} (see `load`); `row`/`first` name places in messages."""
+    chosen = _match(table, parse_assignments('--columns', columns, ('t', *SIGNAL_NAMES)), source)
+    given_units = parse_assignments('--units', units, ('t', *SIGNAL_NAMES))
+    unmapped = sorted(set(given_units) - set(chosen))
+    if unmapped:
+        raise InputError(f'{source}: --units names {", ".join(unmapped)}, which no column holds')
+    inputs, values = {}, {}
+    for signal, column in chosen.items():
+        header_unit = split_header(column)[1]
+        if signal in given_units:
+            scale, unit, origin = *parse_unit(signal, given_units[signal]), '--units'
+        elif header_unit is not None:
+            try:
+                scale, unit = parse_unit(signal, header_unit)
+            except InputError as exc:
+                raise InputError(f'{source}: column {column!r}: {exc}; give the unit with --units') from None
+            origin = 'header'
+        else:
+            scale, unit, origin = 1.0, SIGNAL_UNITS[signal], 'SI (assumed)'
+        inputs[signal] = {'source': column, 'unit': unit, 'scale': scale, 'unit_from': origin}
+        values[signal] = table[column] * scale
+    signals = {**{name: v for name, v in table.items() if name not in chosen.values()},
+               **{name: v for name, v in values.items() if name != 't'}}
+    if 't' in values:
+        if sample_period is not None:
+            raise InputError(f'{source}: give either a time column or --sample-period, not both')
+        period, start, jitter = steady_period(values['t'], source, inputs['t']['source'], row, first)
+    elif sample_period is None:
+        raise InputError(f'{source}: missing column t (time): map one with --columns t=NAME, or give '
+                         f'--sample-period S (columns: {", ".join(table)})')
+    else:
+        if not 0.0 < float(sample_period) < float('inf'):
+            raise InputError(f'{source}: --sample-period must be a positive number of seconds, got {sample_period}')
+        period, start, jitter = float(sample_period), 0.0, 0.0
+    return Recording(sample_period=period, signals=signals, start_time=start, source=source, inputs=inputs,
+                     sampling={'period': period, 'jitter': jitter})
+
+
+def _match(table, explicit, source):
+    """{signal: column}: the explicit ones, then columns whose name (unit aside) is the signal's or an alias."""
+    for signal, column in explicit.items():
+        if column not in table:
+            raise InputError(f'{source}: --columns {signal}={column}: no such column (has {", ".join(table)})')
+    chosen = dict(explicit)
+    for column in table:
+        if column in explicit.values():
+            continue
+        name = split_header(column)[0].lower()
+        for signal, aliases in ALIASES.items():
+            if name in aliases and signal not in explicit:
+                if signal in chosen:
+                    raise InputError(f'{source}: columns {chosen[signal]!r} and {column!r} both look like '
+                                     f'{signal}; choose one with --columns {signal}=NAME')
+                chosen[signal] = column
+    return chosen
 
 
 def as_recording(data=None, *, sample_period=None, start_time=0.0, **signals):
@@ -59,8 +157,6 @@ def as_recording(data=None, *, sample_period=None, start_time=0.0, **signals):
     InputError
         Unknown signal names, arrays of different lengths, no data, or an unusable file.
     """
-    from emla_core.recording import Recording
-
     given = {name: values for name, values in signals.items() if values is not None}
     if data is not None:
         if given:

@@ -17,6 +17,7 @@ from pathlib import Path
 
 from emla_core.errors import InputError
 
+from .inputs import DATA_HELP, add_data_arguments, load_data, understood
 from .output import emit_json, json_text
 
 HELP = 'Find what the model is missing: name the effect, add it, show the gap shrink.'
@@ -34,22 +35,22 @@ effects by the share of the held-out prediction error each removes:
 The best one is named only when it is significant; it is added, the model re-identified and the gap
 (NRMSE per signal) reported before and after; then a second effect is looked for.
 
-DATA: CSV (t,voltage,current,position or t,force,position), rosbag2 directory or .mcap file.
 The JSON goes to stdout unless --json is given.
-"""
+
+""" + DATA_HELP
 
 
 def add_arguments(parser):
-    parser.add_argument('data', metavar='DATA', help='CSV file, rosbag2 directory or .mcap file')
+    parser.add_argument('data', metavar='DATA', help='CSV or MAT file, rosbag2 directory or .mcap file')
     parser.add_argument('--json', metavar='FILE', help='write the result here instead of stdout')
     parser.add_argument('--report', metavar='DIR',
                         help='write report.md with PNG figures (and diagnosis.json) into DIR')
     parser.add_argument('--candidates', metavar='NAMES',
                         help='comma-separated candidate effects to consider (default: all registered)')
+    add_data_arguments(parser)
 
 
 def run(args):
-    from emla_core.data import load
     from emla_identification.discrepancy import CANDIDATES, diagnose
 
     names = None
@@ -59,8 +60,9 @@ def run(args):
         if unknown or not names:
             raise InputError(f'--candidates {args.candidates!r}: unknown effect(s) '
                              f'{", ".join(unknown) or "(none given)"}; known: {", ".join(CANDIDATES)}')
-    diagnosis = diagnose(load(args.data), names)
-    result = diagnosis.to_dict()
+    recording = load_data(args)
+    diagnosis = diagnose(recording, names)
+    result = {**diagnosis.to_dict(), **understood(recording, 'discrepancy')}
     if args.report:
         try:
             _write_report(diagnosis, Path(args.report), json_text(result))
@@ -71,7 +73,8 @@ def run(args):
 
 
 def _write_report(diagnosis, directory, text):
-    """Build the report in a scratch directory, then move it in with report.md last (present = complete)."""
+    """Build the report in a scratch directory, then move it in with report.md last (present = complete).
+""" + DATA_HELP
     from emla_identification.discrepancy.report import write_report
 
     directory.mkdir(parents=True, exist_ok=True)

@@ -23,7 +23,9 @@ from pathlib import Path
 import numpy as np
 
 from emla_core.errors import InputError
+from emla_identification.plausibility import plausibility_warnings
 
+from .inputs import DATA_HELP, add_data_arguments, foreign, load_data, understood, warn
 from .output import discard, json_text, publish, stage
 
 HELP = 'Identify actuator parameters (grey-box) or an ARX model from a CSV file or a bag.'
@@ -46,8 +48,11 @@ equals batch least squares.
 
 Long records (a million samples and more) are read and identified in parts with bounded memory; the
 result is the same. The JSON goes to stdout unless --json is given; --plot draws the estimates converging
-(and the true values, when a simulated bag carries them).
-"""
+(and the true values, when a simulated bag carries them). Implausible estimates (a negative resistance, a
+mass of micrograms) are warned about on stderr with the likely cause and the flag that fixes it, and listed
+under "warnings" in the JSON; the exit status stays 0.
+
+""" + DATA_HELP
 MODELS = ('electrical', 'mechanical', 'full', 'arx')
 DEFAULT_ORDERS = (2, 2, 1)
 ARX_DEFAULT = ('voltage', 'current')
@@ -56,27 +61,34 @@ LONG_SAMPLES = 1 << 20          # from here on a record is identified part by pa
 
 
 def add_arguments(parser):
-    parser.add_argument('data', metavar='DATA', help='CSV file, rosbag2 directory or .mcap file')
+    parser.add_argument('data', metavar='DATA', help='CSV or MAT file, rosbag2 directory or .mcap file')
     parser.add_argument('--model', default=None, metavar='MODEL',
                         help='electrical, mechanical, full or arx (default: full for voltage/current/position '
                              'data, mechanical for force/position data)')
     parser.add_argument('--orders', nargs=3, metavar=('NA', 'NB', 'NK'),
                         help='ARX orders: output lags, input lags, input delay in samples (default 2 2 1)')
-    parser.add_argument('--forgetting', default='1', metavar='LAMBDA',
+    memory = parser.add_mutually_exclusive_group()
+    memory.add_argument('--forgetting', default='1', metavar='LAMBDA',
                         help='forgetting factor in (0, 1] (default 1: no forgetting; memory 1/(1 - LAMBDA) samples)')
+    memory.add_argument('--memory-time', type=float, metavar='S',
+                        help='memory time constant in s instead (LAMBDA = 1 - Ts/S)')
     parser.add_argument('--input', metavar='COL', help='ARX input column (default voltage)')
     parser.add_argument('--output', metavar='COL', help='ARX output column (default current)')
     parser.add_argument('--json', metavar='FILE', help='write the result here instead of stdout')
     parser.add_argument('--plot', metavar='FILE.png', help='PNG of the estimates converging over time')
+    add_data_arguments(parser)
 
 
 def run(args):
     model, orders, forgetting = _options(args)
     if model == 'arx':
-        from emla_core.data import load
-        result, plot = _arx(load(args.data), orders, forgetting, args)
+        recording = load_data(args)
+        result, plot = _arx(recording, orders, _memory(args, forgetting, recording), args)
     else:
-        result, plot = _greybox(args.data, model, forgetting, args.plot)
+        recording, parts = _record(args)
+        result, plot = _greybox(recording, parts, model, _memory(args, forgetting, recording), args.plot)
+        result['warnings'] = warn(plausibility_warnings(result['parameters'], result['std'], recording), 'identify')
+    result.update(understood(recording, 'identify'))
     text = json_text(result)
     staged = []  # (temporary, final): renamed only once every output is complete
     try:
@@ -122,12 +134,22 @@ def _options(args):
     return model, orders, forgetting
 
 
-def _greybox(data, model, forgetting, plot):
+def _memory(args, forgetting, recording):
+    """The forgetting factor: --forgetting, or from --memory-time at the data's sample period."""
+    if args.memory_time is None:
+        return forgetting
+    from emla_identification.rls import forgetting_factor
+    try:
+        return forgetting_factor(memory_time=args.memory_time, sample_period=recording.sample_period)
+    except ValueError as exc:
+        raise InputError(f'--memory-time {args.memory_time:g}: {exc}') from None
+
+
+def _greybox(recording, parts, model, forgetting, plot):
     from tqdm import tqdm
 
     from emla_identification.greybox import identify
     from emla_identification.streaming import identify_chunks
-    recording, parts = _record(data)
     if parts is None:
         with tqdm(total=100, unit='%', desc='identify', file=sys.stderr, leave=False,
                   disable=not sys.stderr.isatty() or len(recording) < PROGRESS_MIN_SAMPLES) as bar:
@@ -149,16 +171,16 @@ def _greybox(data, model, forgetting, plot):
     return result.to_dict(), (trajectory.time, trajectory.parameters, trajectory.std, truth, title)
 
 
-def _record(data):
+def _record(args):
     """(the Recording, None) when it is shorter than LONG_SAMPLES, else (it or its first part, its consecutive
-    parts)."""
+    parts). A bag of the suite's own layout is read in parts as it goes; other data are read whole."""
     from emla_core.bag import iter_chunks
-    from emla_core.data import load
+    from emla_core.bag.foreign import suite_layout
     from emla_core.recording import Recording
     from emla_identification.streaming import split
-    path = Path(data)
-    if not (path.is_dir() or path.suffix == '.mcap'):  # CSV, read whole (as load() tells them apart)
-        recording = load(path)
+    path = Path(args.data)
+    if foreign(args) or not suite_layout(path):
+        recording = load_data(args)
         return recording, None if len(recording) < LONG_SAMPLES else split(recording)
     parts = iter_chunks(path)
     head, samples = [], 0

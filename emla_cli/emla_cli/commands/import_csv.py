@@ -1,37 +1,43 @@
-"""Convert a CSV recording into a rosbag2 directory (MCAP) with the suite topics.
-
-Each column becomes a /emla/<column> topic of SampleFrame messages (100 samples per frame) stamped from
-the `t` column; `emla identify` gives the same answer on the CSV and on the bag.
-"""
+"""`emla import`: measured data (CSV, MAT or another bag) into a rosbag2 directory of the suite's topics."""
 import shutil
 from pathlib import Path
 
-HELP = 'Convert a CSV recording into a rosbag2 directory (MCAP) with the suite topics.'
+from emla_core.errors import InputError
+
+from .inputs import DATA_HELP, add_data_arguments, load_data, understood
+
+HELP = 'Convert measured data into a rosbag2 directory (MCAP) with the suite topics.'
 
 
 def description():
     return """\
-Convert a CSV recording into a rosbag2 directory (MCAP) of the suite's topics.
+Convert a recording (CSV or MAT file, or a bag of other topics) into a rosbag2 directory (MCAP) of the
+suite's topics. Each signal becomes a /emla/<signal> topic of SampleFrame messages (100 samples per
+frame) in SI units, stamped from the data's time. `emla identify` gives the same answer on the data and on
+the bag.
 
-Each column becomes a /emla/<column> topic of SampleFrame messages (100 samples per frame), stamped from
-the t column (s). `emla identify` gives the same answer on the CSV and on the bag.
-"""
+""" + DATA_HELP
 
 
 def add_arguments(parser):
-    parser.add_argument('csv', metavar='CSV', help='CSV file with a header row and a t column (s)')
+    parser.add_argument('data', metavar='DATA', help='CSV or MAT file, rosbag2 directory or .mcap file')
     parser.add_argument('bagdir', metavar='BAGDIR', help='rosbag2 directory to create (new or empty)')
+    parser.add_argument('--force', action='store_true', help='replace BAGDIR if it holds a bag already')
+    add_data_arguments(parser)
 
 
 def run(args):
     from emla_core.bag import write_recording
-    from emla_core.recording import read_csv
-    recording = read_csv(args.csv)
+    recording = load_data(args)
     bag = Path(args.bagdir)
+    if args.force and bag.is_dir() and any(bag.iterdir()):
+        if not (bag / 'metadata.yaml').is_file():
+            raise InputError(f'{bag}: --force replaces bags only, and this directory holds no metadata.yaml')
+        shutil.rmtree(bag)
     existed = bag.is_dir()
     fresh = not existed or not any(bag.iterdir())  # else write_recording refuses it, and it is left alone
     try:
-        write_recording(recording, bag, custom_data={'imported_from': Path(args.csv).name})
+        write_recording(recording, bag, custom_data={'imported_from': Path(args.data).name})
     except BaseException:
         # an interrupted or failed import must not leave a bag that reads as complete
         if fresh and bag.exists():
@@ -39,6 +45,7 @@ def run(args):
             if existed:
                 bag.mkdir()
         raise
+    understood(recording, 'import')
     print(f'{bag}: {len(recording)} samples of {", ".join(recording.signals)} '
           f'at {1.0 / recording.sample_period:g} Hz')
     return 0
