@@ -78,7 +78,8 @@ def read_csv(path, *, columns=None, units=None, sample_period=None):
 
 def from_columns(table, source, *, columns=None, units=None, sample_period=None, row='sample', first=0):
     """A Recording of named columns {name: array} (see `load`); `row`/`first` name places in messages."""
-    chosen = _match(table, parse_assignments('--columns', columns, ('t', *SIGNAL_NAMES)), source)
+    chosen = _match(table, parse_assignments('--columns', columns, ('t', *SIGNAL_NAMES)), source,
+                    skip=('t',) if sample_period is not None else ())
     given_units = parse_assignments('--units', units, ('t', *SIGNAL_NAMES))
     unmapped = sorted(set(given_units) - set(chosen))
     if unmapped:
@@ -115,8 +116,9 @@ def from_columns(table, source, *, columns=None, units=None, sample_period=None,
                      sampling={'period': period, 'jitter': jitter})
 
 
-def _match(table, explicit, source):
-    """{signal: column}: the explicit ones, then columns whose name (unit aside) is the signal's or an alias."""
+def _match(table, explicit, source, skip=()):
+    """{signal: column}: the explicit ones, then columns whose name (unit aside) is the signal's or an alias
+    (not for the signals in `skip`)."""
     for signal, column in explicit.items():
         if column not in table:
             raise InputError(f'{source}: --columns {signal}={column}: no such column (has {", ".join(table)})')
@@ -126,7 +128,7 @@ def _match(table, explicit, source):
             continue
         name = split_header(column)[0].lower()
         for signal, aliases in ALIASES.items():
-            if name in aliases and signal not in explicit:
+            if name in aliases and signal not in explicit and signal not in skip:
                 if signal in chosen:
                     raise InputError(f'{source}: columns {chosen[signal]!r} and {column!r} both look like '
                                      f'{signal}; choose one with --columns {signal}=NAME')

@@ -10,7 +10,8 @@ import numpy as np
 
 from emla_core.errors import InputError
 
-JITTER_LIMIT = 0.1  # of the period: steps within this are jitter around the steady rate
+JITTER_LIMIT = 0.25  # of the period: steps this close to it are jitter (stamps jittering by +-10 % of the
+                     # period make steps up to 20 % off)
 GAP_FACTOR = 1.5    # steps beyond this many periods are missing samples
 SAME_RATE = 1e-3    # relative difference of periods below which signals share one rate
 
@@ -40,14 +41,14 @@ def steady_period(t, source, what='t', row='sample', first=0):
                          f'(about {missing} sample(s) missing); a record is not bridged across missing samples: '
                          f'identify the parts before and after it separately')
     deviation = np.abs(steps - period) / period
-    jitter = float(deviation.max())
-    if jitter > JITTER_LIMIT:
+    if deviation.max() > JITTER_LIMIT:
         k = int(np.argmax(deviation))
         raise InputError(f'{source}: sampling is not uniform at {row} {first + k + 1} (step {steps[k]:.6g} s, '
-                         f'steady step {period:.6g} s; up to {JITTER_LIMIT:.0%} jitter is accepted)')
-    if len(t) > 2:  # the mean step, unless it is thrown off by rounding of the steps
-        period = float((t[-1] - t[0]) / (len(t) - 1))
-    start = float(np.mean(t - period * np.arange(len(t))))
+                         f'steady step {period:.6g} s; steps up to {JITTER_LIMIT:.0%} off are taken as jitter)')
+    k = np.arange(len(t)) - (len(t) - 1) / 2          # the steady grid that fits the stamps best
+    period = float(k @ (t - t.mean()) / (k @ k))
+    start = float(t.mean() - period * (len(t) - 1) / 2)
+    jitter = float(np.max(np.abs(t - start - period * np.arange(len(t))))) / period
     return period, start, jitter
 
 
@@ -74,7 +75,9 @@ def align(series, source):
         start = grids[fastest][1] + offsets[fastest] * period
         how = 'one rate: samples aligned by their times, none interpolated'
     else:
-        start = max(g[1] for g in grids.values())
+        # the fastest signal's own samples from the latest start on: only the slower ones are interpolated
+        latest = max(g[1] for g in grids.values())
+        start = grids[fastest][1] + np.ceil((latest - grids[fastest][1]) / period - 1e-9) * period
         end = min(g[1] + (len(series[name][1]) - 1) * g[0] for name, g in grids.items())
         n = int(np.floor((end - start) / period + 1e-9)) + 1
         if n < 2:

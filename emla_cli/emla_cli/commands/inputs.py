@@ -6,8 +6,8 @@ Data in your own names and units (CSV, MATLAB .mat, rosbag2 directory in MCAP or
   --columns voltage=u_V,current=i_mA,position=x_mm,t=time_ms   which column or MAT variable holds what
   --units current=mA,position=mm,t=ms                           units (a leading minus flips the sign)
   --topics voltage=/u,current=/i,position=/joint_states:position[0]   bag topics of standard messages
-Column headers like x_mm, x [mm] or x (mm) give their unit without flags. Timestamps that jitter by up to
-10 % are read at their steady rate; missing samples are named and refused."""
+Column headers like x_mm, x [mm] or x (mm) give their unit without flags. Timestamps that jitter (by up to
+10 % of the period) are read at their steady rate; missing samples are named and refused."""
 JITTER_NOTE = 1e-3  # relative jitter from which the command says on stderr that it read the steady rate
 
 
@@ -48,9 +48,9 @@ def understood(recording, command):
     if plain and jitter <= JITTER_NOTE and 'how' not in sampling:
         return {}
     if jitter > JITTER_NOTE:
-        print(f'emla {command}: note: timestamps jitter by up to {jitter:.1%} of the period; identified at the '
-              f'steady {1 / sampling["period"]:.6g} Hz', file=sys.stderr)
-    if 'interpolated' in sampling.get('how', ''):
+        print(f'emla {command}: note: timestamps jitter by up to {jitter:.1%} of the period; read at the steady '
+              f'{1 / sampling["period"]:.6g} Hz', file=sys.stderr)
+    if 'linearly' in sampling.get('how', ''):
         print(f'emla {command}: note: {sampling["how"]}', file=sys.stderr)
     return {'inputs': recording.inputs, 'sampling': sampling}
 

@@ -115,7 +115,7 @@ def load_bag(path, topics=None, units=None):
             if connections[spec.topic].msgtype not in SUPPORTED:
                 raise InputError(f'{path}: {spec.topic} is {connections[spec.topic].msgtype}; --topics reads '
                                  f'{", ".join(t.split("/")[-1] for t in SUPPORTED)}')
-        series, timing = _read(reader, path, specs, connections)
+        series, origin, timing = _read(reader, path, specs, connections)
     finally:
         reader.close()
     given_units = parse_assignments('--units', units, SIGNAL_NAMES)
@@ -127,8 +127,8 @@ def load_bag(path, topics=None, units=None):
         inputs[name] = {'topic': spec.topic, 'type': connections[spec.topic].msgtype, 'field': spec.describe(),
                         'time': timing[name], **({'unit': unit, 'scale': scale} if unit else {})}
     period, start, values, sampling = align(series, str(path))
-    return Recording(sample_period=period, signals=values, start_time=start, source=str(path), inputs=inputs,
-                     sampling=sampling)
+    return Recording(sample_period=period, signals=values, start_time=origin + start, source=str(path),
+                     inputs=inputs, sampling=sampling)
 
 
 def _suite_topics(path, connections):
@@ -149,7 +149,8 @@ def _listing(connections):
 
 
 def _read(reader, path, specs, connections):
-    """({signal: (times s, values)}, {signal: 'header stamps' | 'log time'}) of the mapped topics."""
+    """({signal: (times s since the origin, values)}, origin s, {signal: 'header stamps' | 'log time'}) of the
+    mapped topics."""
     wanted = [connections[t] for t in {spec.topic for spec in specs.values()}]
     by_topic = {}
     for name, spec in specs.items():
@@ -172,12 +173,13 @@ def _read(reader, path, specs, connections):
         raise
     except Exception as exc:  # a damaged bag: one line
         raise InputError(f'{path}: unreadable bag: {" ".join(str(exc).split()) or type(exc).__name__}') from None
-    series = {}
-    for name, (times, values, periods) in samples.items():
-        if not times:
-            raise InputError(f'{path}: no messages on {specs[name].topic}')
-        series[name] = _spread(np.array(times, dtype=np.int64), values, periods, path, specs[name])
-    return series, {name: 'header stamps' if ok else 'log time' for name, ok in stamped.items()}
+    empty = [specs[name].topic for name, (times, _, _) in samples.items() if not times]
+    if empty:
+        raise InputError(f'{path}: no messages on {", ".join(empty)}')
+    origin = min(times[0] for times, _, _ in samples.values())  # times since it, so seconds keep their precision
+    series = {name: _spread(np.array(times, dtype=np.int64) - origin, values, periods, path, specs[name])
+              for name, (times, values, periods) in samples.items()}
+    return series, origin * 1e-9, {name: 'header stamps' if ok else 'log time' for name, ok in stamped.items()}
 
 
 def _values(msg, msgtype, spec, path):
