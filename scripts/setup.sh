@@ -32,10 +32,22 @@ pip_install() {
   return "${PIPESTATUS[0]}"
 }
 
+# Run a long step in the background and say every 15 s that it is still going (pip is quiet meanwhile).
+with_progress() {
+  local label=$1; shift
+  "$@" &
+  local pid=$! start=$SECONDS
+  while kill -0 "$pid" 2>/dev/null; do
+    sleep 1
+    if (( SECONDS > start && (SECONDS - start) % 15 == 0 )); then say "  $label: $((SECONDS - start)) s"; fi
+  done
+  wait "$pid"
+}
+
 h=$(digest requirements.txt)
 if ! fresh requirements "$h"; then
-  say "installing pinned requirements (ROS 2 Jazzy wheels, numpy, scipy, ...)"
-  pip_install -r requirements.txt
+  say "installing pinned requirements (ROS 2 Jazzy wheels, numpy, scipy, ...; about a minute)"
+  with_progress requirements pip_install -r requirements.txt
   mark requirements "$h"
 fi
 

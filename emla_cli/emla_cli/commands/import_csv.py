@@ -2,9 +2,8 @@
 import shutil
 from pathlib import Path
 
-from emla_core.errors import InputError
-
 from .inputs import DATA_HELP, add_data_arguments, load_data, understood
+from .output import replace_bag
 
 HELP = 'Convert measured data into a rosbag2 directory (MCAP) with the suite topics.'
 
@@ -30,10 +29,7 @@ def run(args):
     from emla_core.bag import write_recording
     recording = load_data(args)
     bag = Path(args.bagdir)
-    if args.force and bag.is_dir() and any(bag.iterdir()):
-        if not (bag / 'metadata.yaml').is_file():
-            raise InputError(f'{bag}: --force replaces bags only, and this directory holds no metadata.yaml')
-        shutil.rmtree(bag)
+    replace_bag(bag, args.force)
     existed = bag.is_dir()
     fresh = not existed or not any(bag.iterdir())  # else write_recording refuses it, and it is left alone
     try:

@@ -3,6 +3,7 @@ complete under their name or not at all (written to a hidden name beside it, the
 import json
 import math
 import os
+import shutil
 import sys
 from pathlib import Path
 
@@ -72,3 +73,14 @@ def emit_json(data, path=None):
         sys.stdout.write(text)
     else:
         write_file(path, lambda temporary: Path(temporary).write_text(text))
+
+
+def replace_bag(path, force):
+    """With `force`, remove the bag at `path` so that a new one can be written there; only a directory that
+    holds a bag (metadata.yaml) is removed, never other files."""
+    path = Path(path)
+    if not (force and path.is_dir() and any(path.iterdir())):
+        return
+    if not (path / 'metadata.yaml').is_file():
+        raise InputError(f'{path}: --force replaces bags only, and this directory holds no metadata.yaml')
+    shutil.rmtree(path)

@@ -14,6 +14,8 @@ import time
 
 from emla_core.errors import InputError
 
+from .output import replace_bag
+
 HELP = 'Simulate a scenario in-process and record it as a bag.'
 
 
@@ -33,6 +35,7 @@ def add_arguments(parser):
                         help='scenario name (default: default; see above)')
     parser.add_argument('--duration', type=float, metavar='S', help="simulated time, s (default: the scenario's, above)")
     parser.add_argument('--bag', required=True, metavar='DIR', help='bag directory to write (new or empty)')
+    parser.add_argument('--force', action='store_true', help='replace DIR if it holds a bag already')
 
 
 def frames(values, n, state):
@@ -96,6 +99,7 @@ def run(args):
     duration = scenario.duration if args.duration is None else args.duration
     if not 0 < duration < 1e6:
         raise InputError(f'--duration must be positive, got {duration}')
+    replace_bag(args.bag, args.force)
     started = time.monotonic()
     # One sample more than the duration: the state the last voltage interval ends on is sampled too.
     result = scenario.run_case(scenario.graph_case, duration + scenario.sample_period,
