@@ -4,7 +4,8 @@ The rows are those of regressors.py, computed per frame with the last HISTORY sa
 in front (regressors.RowStream), so the stream yields exactly the rows of the whole record; each regression runs
 its own RecursiveLeastSquares over them (with its instruments, if it has any). The physical parameters are
 formed from the recursions' states by physical.physical, as greybox.identify forms them from the batch solution:
-with forgetting 1 the final estimate equals greybox.identify on the same samples (to rounding).
+with forgetting 1 the final estimate equals greybox.identify on the same samples (to rounding). After lost
+samples, gap() restarts the rows on the next frame, so that none spans the gap.
 """
 import math
 
@@ -50,8 +51,15 @@ class OnlineIdentifier:
         self._stream.reset()
         self._residual_rms = math.nan
 
+    def gap(self):
+        """Samples were lost: the next frame does not follow on from the last one, and no row will span the
+        gap. The estimates and their statistics are kept (the noise model's lagged moments pair the few rows
+        either side as neighbours: negligible among thousands)."""
+        self._stream.restart()
+
     def update(self, voltage=None, current=None, position=None, *, force=None):
-        """Feed one frame (1-D arrays of equal length of the identifier's signals)."""
+        """Feed one frame (1-D arrays of equal length of the identifier's signals); see gap() when it does not
+        follow on from the last one."""
         given = {'voltage': voltage, 'current': current, 'position': position, 'force': force}
         if any(given[name] is None for name in self._stream.signals):
             raise ValueError(f'the {self.model} identifier needs {", ".join(self._stream.signals)} in each frame')

@@ -192,8 +192,13 @@ class RowStream:
         self.reset()
 
     def reset(self):
-        self._tail = {name: np.empty(0) for name in self.signals}
+        self.restart()
         self.samples = 0
+
+    def restart(self):
+        """The next frame does not follow on from the last one (samples were lost in between): no row spans
+        the gap. The count of samples stays."""
+        self._tail = {name: np.empty(0) for name in self.signals}
 
     def rows(self, frame):
         """{kind: (Phi, Y, instruments or None)} of the rows the frame {signal: 1-D array of equal lengths}

@@ -3,7 +3,8 @@
 From the last sample of each measured state frame (time t) it computes the voltage held over the control
 period starting at t and publishes it (stamp t) with the stroke reference it tracks there. Adaptive: at each
 t that is a positive multiple of `adaptation_period` it first waits for the estimate stamped t (see
-emla_core.nodes.common) and offers it to the controller's guard.
+emla_core.nodes.common) and offers it to the controller's guard. Without a usable state for t (a bad frame,
+reported: see common) it holds the last voltage over that period, still published so the lockstep goes on.
 """
 import math
 import sys
@@ -62,19 +63,23 @@ class ControllerNode(common.EmlaNode):
         self.period_ns = self.samples_per_period * self.step_ns
         self.block = (None, None, None)  # (first period, references at the midpoints, reference samples)
         self.adaptation_ns = topics.to_ns(p.adaptation_period) if p.adaptive else None
-        self.state = None  # (t_ns, current, position): the latest measured sample, not yet acted on
+        self.state = None  # (t_ns, current, position): the latest measured sample (NaN: none), not yet acted on
+        self.voltage = 0.0  # the latest command
         self.estimates = {}  # stamp -> ParameterEstimate
         self.started = False
         self.command = common.frame_publishers(self, {'voltage': topics.COMMAND_TOPIC,
                                                       'reference': topics.REFERENCE_TOPIC})
         self.states = common.FrameSets(self, {name: topics.MEASURED_TOPICS[name] for name in ('current', 'position')},
-                                       self.on_states, p.sample_period)
+                                       self.on_states, common.Faults(self), p.sample_period)
         if p.adaptive:
             self.create_subscription(ParameterEstimate, topics.PARAMETERS_TOPIC, self.on_estimate, common.LATCHED_QOS)
 
     def on_states(self, stamp, sample_period, frames):
-        t = stamp + (len(frames['position']) - 1) * self.step_ns
-        self.state = (t, frames['current'][-1], frames['position'][-1])
+        if frames is None:  # unusable: the state frame of a period ends on the first period start from its stamp
+            self.state = (-(-stamp // self.period_ns) * self.period_ns, math.nan, math.nan)
+        else:
+            t = stamp + (len(frames['position']) - 1) * self.step_ns
+            self.state = (t, frames['current'][-1], frames['position'][-1])
         self.act()
 
     def on_estimate(self, msg):
@@ -85,7 +90,8 @@ class ControllerNode(common.EmlaNode):
         if self.state is None:
             return
         t, current, position = self.state
-        if self.adaptation_ns and t > 0 and t % self.adaptation_ns == 0:
+        measured = math.isfinite(current) and math.isfinite(position)
+        if measured and self.adaptation_ns and t > 0 and t % self.adaptation_ns == 0:
             if t not in self.estimates:
                 return  # wait for the estimate due now
             msg = self.estimates[t]
@@ -93,12 +99,14 @@ class ControllerNode(common.EmlaNode):
             self.controller.update_parameters(values, msg.samples_used)
         self.estimates = {stamp: msg for stamp, msg in self.estimates.items() if stamp > t}
         self.state = None
-        if not self.started:
-            self.controller.reset(position)
-            self.started = True
         midpoint, samples = self.references(t // self.period_ns)
-        voltage = self.controller.step(current, position, midpoint)
-        self.command['voltage'].publish(messages.frame_message(t, self.sample_period, np.full(self.samples_per_period, voltage)))
+        if measured:  # else the last voltage is held
+            if not self.started:
+                self.controller.reset(position)
+                self.started = True
+            self.voltage = self.controller.step(current, position, midpoint)
+        self.command['voltage'].publish(messages.frame_message(t, self.sample_period,
+                                                               np.full(self.samples_per_period, self.voltage)))
         self.command['reference'].publish(messages.frame_message(t, self.sample_period, samples))
 
     def references(self, period):

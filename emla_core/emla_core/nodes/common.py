@@ -20,11 +20,12 @@ Aligned by stamp (as emla_core.bag.read_bag does), the state samples at t_j pair
 | /emla/{voltage,current,position}       | emla_msgs/SampleFrame (measured)| sensor     | FRAME   |
 | /emla/voltage_command, /emla/reference | emla_msgs/SampleFrame           | controller | FRAME   |
 | /emla/parameters                       | emla_msgs/ParameterEstimate     | identifier | LATCHED |
-| /diagnostics                           | diagnostic_msgs/DiagnosticArray | identifier | DIAGNOSTICS |
+| /diagnostics                           | diagnostic_msgs/DiagnosticArray | identifier*| DIAGNOSTICS |
 FRAME: reliable, transient local, keep last 1000 (1 s of default frames: a reader outside the loop, such as a
 non-adaptive controller's identifier or a recorder, may lag that much without losing frames);
 LATCHED: reliable, transient local, keep last 1 (a late subscriber gets the latest);
 CLOCK: best effort, volatile, keep last 1 (as rclpy's time source subscribes); DIAGNOSTICS: reliable, 10.
+*and the sensor's and controller's input faults (see Bad frames).
 
 Deterministic lockstep in simulated time:
 1. Start: once /emla/position has `start_subscribers` subscriptions (the plant's parameter: controller,
@@ -56,12 +57,23 @@ final estimate stamped with that end time (if that was not a publishing instant 
 /emla/parameters message covers every sample the plant produced. A launcher waits for it, then stops the
 other nodes with SIGTERM.
 
+Bad frames (a real sensor stream loses some): the sensor, controller and identifier keep running through lost,
+empty, non-finite and wrong-period frames and stamps that jump back; each such fault is a warning in the log
+and a count on /diagnostics (`Faults`; `FrameSets` and `AlignedSamples` find them and resynchronise). The
+sensor publishes empty frames for a period whose plant frames it cannot use (non-finite samples it measures
+as they are); the controller holds its last voltage over a period whose state it lacks and publishes it, so
+the lockstep goes on (it does not wait for an estimate then); the identifier skips the instants it lacks
+usable samples for, and none of its regression rows spans them. A frame lost outright inside the lockstep
+stalls it: the next one needs the command it would have led to.
+
 Each node: parameters declared read-only with descriptors (range, units in the description), defaults in the
 package's config/<node>.yaml; SIGINT/SIGTERM end it cleanly with exit status 0 (after the acknowledgements
 of what it published, at most ACK_TIMEOUT); bad parameters end it with one line on stderr and exit status 2.
 """
+import collections
 import contextlib
 import dataclasses
+import itertools
 import os
 import signal
 import sys
@@ -70,6 +82,7 @@ import types
 
 import numpy as np
 import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.duration import Duration
 from rclpy.exceptions import ParameterException
@@ -82,7 +95,7 @@ from rclpy.signals import SignalHandlerOptions
 from emla_core.errors import InputError
 from emla_core.messages import frame_data
 from emla_core.parameters import PARAMETER_UNITS, TABLE1
-from emla_core.topics import QOS, stamp_to_ns, to_ns
+from emla_core.topics import DIAGNOSTICS_TOPIC, QOS, stamp_to_ns, to_ns
 from emla_msgs.msg import SampleFrame
 
 
@@ -110,36 +123,93 @@ def period_samples(sample_period, control_period):
 
 # ---- frames ----
 
+class Faults:
+    """A node's input faults (a lost frame, an empty one, ...) counted by kind: each is logged as a warning (at
+    most one line per WARNING_INTERVAL s: a burst does not flood the log), and within a second of a new one
+    the counts go to /diagnostics, one status 'emla/<node>/input' of level WARN with a KeyValue per kind."""
+
+    WARNING_INTERVAL = 5.0  # s
+
+    def __init__(self, node):
+        self._node = node
+        self.counts = collections.Counter()
+        self._published = 0  # total of the counts on /diagnostics
+        self._diagnostics = node.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, DIAGNOSTICS_QOS)
+        node.create_timer(1.0, self._publish)
+
+    def report(self, kind, message):
+        self.counts[kind] += 1
+        self._node.get_logger().warning(f'{message} (input faults so far: {self._summary()})',
+                                        throttle_duration_sec=self.WARNING_INTERVAL)
+
+    def _summary(self):
+        return ', '.join(f'{count} {kind}' for kind, count in sorted(self.counts.items()))
+
+    def _publish(self):
+        if self.counts.total() == self._published:
+            return
+        self._published = self.counts.total()
+        status = DiagnosticStatus(level=DiagnosticStatus.WARN, name=f'emla/{self._node.get_name()}/input',
+                                  hardware_id='emla', message=f'input faults: {self._summary()}',
+                                  values=[KeyValue(key=kind, value=str(count))
+                                          for kind, count in sorted(self.counts.items())])
+        array = DiagnosticArray(status=[status])
+        array.header.stamp = self._node.get_clock().now().to_msg()
+        self._diagnostics.publish(array)
+
+
 class FrameSets:
     """Subscribes to frame topics {name: topic}; calls on_set(stamp_ns, sample_period, {name: array}) once
-    every topic has delivered its frame with that stamp (in stamp order: each topic is in order). With
-    `sample_period` given, frames of another sample period are dropped; drops and gaps (lost frames: the
-    run is no longer deterministic) are logged as errors."""
+    every topic has delivered its frame with that stamp (in stamp order: each topic is in order).
 
-    def __init__(self, node, topics, on_set, sample_period=None):
-        self._log = node.get_logger()
+    Bad input is reported to `faults` (a Faults) and survived: a frame stamped before the end of its topic's
+    previous one (a duplicate, a jump back) is dropped ('stamp_back'); a gap in a topic ('missing': a lost
+    frame) leaves its set incomplete, dropped once a later set completes; an 'empty' frame, one of another
+    sample period ('wrong_period'; with `sample_period` given) or a set whose frames differ in length or
+    period ('unmatched') gives on_set(stamp_ns, sample_period, None), so the node still learns of the
+    period. 'non_finite' samples are passed on: the node knows which samples it needs."""
+
+    def __init__(self, node, topics, on_set, faults, sample_period=None):
+        self._topics = topics
         self._on_set = on_set
+        self._faults = faults
         self._step = None if sample_period is None else to_ns(sample_period)
-        self._next = dict.fromkeys(topics)  # name -> the stamp its next frame must have
-        self._pending = {}
+        self._last = dict.fromkeys(topics)  # name -> (stamp, end) of its latest frame; end None if unknown
+        self._pending = {}  # stamp -> {name: (samples, sample_period), or None if unusable}
         for name, topic in topics.items():
             node.create_subscription(SampleFrame, topic, lambda msg, name=name: self._receive(name, msg), FRAME_QOS)
 
     def _receive(self, name, msg):
-        step = to_ns(msg.sample_period)
-        if self._step not in (None, step):
-            self._log.error(f'dropped {name} frames of sample period {msg.sample_period} s (the sample_period '
-                            f'parameter is {self._step * 1e-9} s)', throttle_duration_sec=5.0)
+        stamp, samples, period = stamp_to_ns(msg.header.stamp), frame_data(msg), msg.sample_period
+        step = to_ns(period) if 0.0 < period < 1e6 else 0  # (to_ns overflows on huge ones)
+        where = f'{self._topics[name]} frame stamped {stamp} ns'
+        last = self._last[name]
+        if last and (stamp <= last[0] or last[1] is not None and stamp < last[1]):
+            self._faults.report('stamp_back', f'dropped a {where}: its topic was at '
+                                              f'{last[0] if last[1] is None else last[1]} ns')
             return
-        stamp = stamp_to_ns(msg.header.stamp)
-        if self._next[name] not in (None, stamp):
-            self._log.error(f'{name} frames missing from {self._next[name]} to {stamp} ns')
-        self._next[name] = stamp + len(msg.data) * step
+        if last and last[1] is not None and stamp > last[1]:
+            self._faults.report('missing', f'{self._topics[name]} frames missing from {last[1]} to {stamp} ns')
+        fault = 'empty' if not len(samples) else \
+            'wrong_period' if step <= 0 or self._step not in (None, step) else None
+        if fault:
+            self._faults.report(fault, f'{where} ({len(samples)} samples of {period} s) is unusable: {fault}')
+        elif not np.isfinite(samples).all():
+            self._faults.report('non_finite', f'{where} has non-finite samples')
+        self._last[name] = (stamp, None if fault else stamp + len(samples) * step)  # after a bad one: any later
         frames = self._pending.setdefault(stamp, {})
-        frames[name] = frame_data(msg)
-        if len(frames) == len(self._next):
-            del self._pending[stamp]
-            self._on_set(stamp, msg.sample_period, frames)
+        frames[name] = None if fault else (samples, period)
+        if len(frames) == len(self._topics):
+            # each topic is in order: the sets before this one cannot complete any more (a frame was lost)
+            self._pending = {later: sets for later, sets in self._pending.items() if later > stamp}
+            self._complete(stamp, period, frames)
+
+    def _complete(self, stamp, period, frames):
+        usable = None not in frames.values()
+        if usable and len({(len(samples), frame_period) for samples, frame_period in frames.values()}) > 1:
+            self._faults.report('unmatched', f'the frames stamped {stamp} ns differ in length or sample period')
+            usable = False
+        self._on_set(stamp, period, {name: samples for name, (samples, _) in frames.items()} if usable else None)
 
 
 class AlignedSamples:
@@ -148,36 +218,60 @@ class AlignedSamples:
     in chunks that never straddle a multiple of `boundary` (ns), so those instants are always chunk ends.
     The graph's frames (state frames one sample later than voltage frames) come out in the Recording
     convention, the estimator's input: the state samples where each voltage interval starts. Frames aligned
-    already (a bag of `emla simulate` played) pass as they are."""
+    already (a bag of `emla simulate` played) pass as they are.
 
-    def __init__(self, node, topics, on_samples, sample_period, boundary):
+    Instants some topic has no samples for (lost or unusable frames, see FrameSets; faults reported there)
+    are skipped: the next chunk starts later than the last one ended, at the first instant all have again.
+    Non-finite samples are passed on, in place."""
+
+    def __init__(self, node, topics, on_samples, faults, sample_period, boundary):
         self._on_samples = on_samples
         self._step = to_ns(sample_period)
         self._boundary = boundary
-        self._cursor = None  # the first instant not passed on yet
+        self._cursor = None  # the first instant not passed on (or skipped) yet
         self._queues = {name: [] for name in topics}  # name -> [(stamp, samples)] not passed on yet
-        self._frames = [FrameSets(node, {name: topic}, self._receive, sample_period)
+        self._frames = [FrameSets(node, {name: topic}, self._receive, faults, sample_period)
                         for name, topic in topics.items()]
 
     def _receive(self, stamp, sample_period, frames):
+        if frames is None:
+            return  # an unusable frame: its instants will be skipped
         ((name, samples),) = frames.items()
         self._queues[name].append((stamp, samples))
-        while all(self._queues.values()):
-            if self._cursor is None:
-                self._cursor = max(queue[0][0] for queue in self._queues.values())
-            last_frames = (queue[-1] for queue in self._queues.values())
-            covered = min(stamp + len(samples) * self._step for stamp, samples in last_frames)
-            end = min(covered, (self._cursor // self._boundary + 1) * self._boundary)
-            if end <= self._cursor:
+        while True:
+            if self._cursor is not None:
+                for queue in self._queues.values():  # drop what the cursor skipped
+                    while queue and self._end(queue[0]) <= self._cursor:
+                        queue.pop(0)
+            if not all(self._queues.values()):
                 return
+            resume = max(queue[0][0] for queue in self._queues.values())
+            if self._cursor is None or resume > self._cursor:
+                self._cursor = resume  # the start, or a skip over instants some topic lacks
+                continue
+            end = min((self._cursor // self._boundary + 1) * self._boundary,
+                      *(self._contiguous_end(queue) for queue in self._queues.values()))
             chunk = {name: self._take(queue, end) for name, queue in self._queues.items()}
             start, self._cursor = self._cursor, end
             self._on_samples(start, chunk)
 
+    def _end(self, frame):
+        stamp, samples = frame
+        return stamp + len(samples) * self._step
+
+    def _contiguous_end(self, queue):
+        """The end of the queued samples that follow on from the first frame without a gap."""
+        end = self._end(queue[0])
+        for frame in itertools.islice(queue, 1, None):
+            if frame[0] != end:
+                break
+            end = self._end(frame)
+        return end
+
     def _take(self, queue, end):
         """The queued samples at the instants [cursor, end); later ones stay queued."""
         parts = []
-        while queue:
+        while queue and queue[0][0] < end:
             stamp, samples = queue[0]
             first, last = max(0, (self._cursor - stamp) // self._step), (end - stamp) // self._step
             parts.append(samples[first:last])

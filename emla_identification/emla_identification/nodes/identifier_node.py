@@ -2,7 +2,8 @@
 
 Publishes /emla/parameters (latched) at every multiple of `publish_period` that ends a control period,
 stamped with the end of the data used, and a final estimate at the end time /emla/plant/done announces
-(see emla_core.nodes.common); /diagnostics with each estimate.
+(see emla_core.nodes.common); /diagnostics with each estimate. Bad frames (see common) are reported and
+skipped, non-finite samples too: the estimator gets only finite samples, and a gap() wherever some are missing.
 """
 import math
 import sys
@@ -36,6 +37,11 @@ def estimate(identifier):
         return identifier.full_estimate()
 
 
+def finite_runs(finite):
+    """[first, last) of each run of True in a 1-D boolean array."""
+    return np.flatnonzero(np.diff(finite, prepend=False, append=False)).reshape(-1, 2).tolist()
+
+
 def warm_up(identifier):
     """Run the estimator's compiled kernels once (about 0.5 s the first time), before the node subscribes:
     the plant starts only then, so the first frames do not pile up (a non-adaptive loop does not wait)."""
@@ -58,18 +64,25 @@ class IdentifierNode(common.EmlaNode):
         warm_up(OnlineIdentifier(**settings))
         self.step = topics.to_ns(p.sample_period)
         self.publish_step = topics.to_ns(p.publish_period)
-        self.covered = 0  # ns: the estimator has used every voltage interval before this time
+        self.covered = 0  # ns: the estimator has used every (usable) voltage interval before this time
+        self.fed = None  # ns: the end of the samples fed last (the next ones follow on from there, or a gap)
         self.published = None  # stamp of the latest estimate
         self.end = None  # end of the run, from /emla/plant/done
         self.estimates = self.create_publisher(ParameterEstimate, topics.PARAMETERS_TOPIC, common.LATCHED_QOS)
         self.diagnostics = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS_TOPIC, common.DIAGNOSTICS_QOS)
-        self.measured = common.AlignedSamples(self, topics.MEASURED_TOPICS, self.on_samples, p.sample_period,
-                                             self.publish_step)
+        self.measured = common.AlignedSamples(self, topics.MEASURED_TOPICS, self.on_samples, common.Faults(self),
+                                             p.sample_period, self.publish_step)
         self.create_subscription(Time, topics.DONE_TOPIC, self.on_done, common.LATCHED_QOS)
 
     def on_samples(self, start, samples):
-        self.identifier.update(samples['voltage'], samples['current'], samples['position'])
-        self.covered = start + len(samples['voltage']) * self.step
+        signals = [samples[name] for name in ('voltage', 'current', 'position')]
+        finite = np.isfinite(signals).all(axis=0)
+        for first, last in finite_runs(finite):
+            if start + first * self.step != self.fed:
+                self.identifier.gap()
+            self.identifier.update(*(signal[first:last] for signal in signals))
+            self.fed = start + last * self.step
+        self.covered = start + len(finite) * self.step
         if self.covered % self.publish_step == 0 or self.covered == self.end:
             self.publish()
 

@@ -1,9 +1,12 @@
 """The sensor node: the DSP's view of the plant (emla_sim.sensor), frame by frame (see common).
 
 State frames /emla/plant/{current,position} are measured (delay, noise, quantisation) onto /emla/*; the
-voltage frames pass unchanged (the DSP knows what it applied).
+voltage frames pass unchanged (the DSP knows what it applied). Plant frames it cannot use (see common) give
+empty measured frames with their stamp: the period goes unmeasured, the lockstep goes on.
 """
 import sys
+
+import numpy as np
 
 from emla_core import messages, topics
 from emla_core.nodes import common
@@ -32,12 +35,12 @@ class SensorNode(common.EmlaNode):
         self.create_subscription(SampleFrame, topics.PLANT_TOPICS['voltage'], self.outputs['voltage'].publish,
                                  common.FRAME_QOS, raw=True)  # passed on serialised
         self.states = common.FrameSets(self, {name: topics.PLANT_TOPICS[name] for name in ('current', 'position')},
-                                       self.measure)
+                                       self.measure, common.Faults(self))
 
     def measure(self, stamp, sample_period, frames):
-        current, position = self.sensor.measure(frames['current'], frames['position'])
-        self.outputs['current'].publish(messages.frame_message(stamp, sample_period, current))
-        self.outputs['position'].publish(messages.frame_message(stamp, sample_period, position))
+        measured = (np.empty(0),) * 2 if frames is None else self.sensor.measure(frames['current'], frames['position'])
+        for name, samples in zip(('current', 'position'), measured):
+            self.outputs[name].publish(messages.frame_message(stamp, sample_period, samples))
 
 
 def main(args=None):
