@@ -3,7 +3,9 @@
 A launch holds an advisory lock on one ROS_DOMAIN_ID (a lock file per id), so parallel launches on this host
 never share a domain; discovery is limited to localhost. Each node is its own process group (own session)
 and gets SIGTERM if the launcher dies; stop() ends them with SIGINT, then SIGTERM, then SIGKILL after
-timeouts and removes the shared-memory files Fast DDS leaves behind killed processes.
+timeouts. The Fast DDS files in /dev/shm that the nodes had open or mapped are noted while they run and removed
+at the end where no live process uses them: a killed node leaves its files, and even nodes that end cleanly
+leave their ports' files, which `fastdds shm clean` does not find.
 """
 import collections
 import contextlib
@@ -11,6 +13,7 @@ import ctypes
 import dataclasses
 import fcntl
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -29,6 +32,8 @@ from emla_core.topics import stamp_to_ns
 # Domain ids a launch may take: 215-232 first (clear of the ids tests and users pick), then 1-101.
 DOMAINS = (*range(215, 233), *range(1, 102))
 BIN = Path(sys.executable).parent
+SHM = Path('/dev/shm')
+SHM_LOOK_PERIOD = 0.25   # s between looks at the shared-memory files of the running nodes
 
 
 @contextlib.contextmanager
@@ -105,6 +110,9 @@ class Graph:
     def __init__(self, env):
         self.env = env
         self.nodes = []
+        self.shared_memory = set()   # names of the Fast DDS files in SHM the nodes had open or mapped
+        self._closed = threading.Event()
+        self._watcher = threading.Thread(target=self._watch, daemon=True)
 
     def start(self, name, args):
         node = NodeProcess(name, args, self.env)
@@ -117,34 +125,60 @@ class Graph:
     def stop(self, names=None, timeouts=(5.0, 3.0, 3.0)):
         """End the named nodes (all by default): SIGINT, SIGTERM, SIGKILL, each after the previous timed out."""
         nodes = [n for n in self.nodes if names is None or n.name in names]
-        killed = False
         for signum, timeout in zip((signal.SIGINT, signal.SIGTERM, signal.SIGKILL), timeouts):
             alive = [n for n in nodes if n.running()]
             if not alive:
                 break
-            killed = signum == signal.SIGKILL
             for node in alive:
                 node.signal(signum)
             deadline = time.monotonic() + timeout
             for node in alive:
                 with contextlib.suppress(subprocess.TimeoutExpired):
                     node.popen.wait(timeout=max(0.0, deadline - time.monotonic()))
-        if killed or any(n.popen.returncode not in (0, None) for n in nodes):
-            clean_shared_memory()
+
+    def _watch(self):
+        """Note the nodes' shared-memory files while they run (once a node is gone, they can no longer be told)."""
+        while not self._closed.wait(SHM_LOOK_PERIOD):
+            for node in list(self.nodes):
+                if node.running():
+                    self.shared_memory |= shm_files(node.pid)
 
     def __enter__(self):
+        self._watcher.start()
         return self
 
     def __exit__(self, *exc):
         self.stop()
+        self._closed.set()
+        self._watcher.join()
+        remove_unused_shm(self.shared_memory)
         return False
 
 
-def clean_shared_memory():
-    """Remove the Fast DDS shared-memory files of processes that are gone (a SIGKILL leaves them)."""
-    fastdds = BIN / 'fastdds'
-    if fastdds.exists():
-        subprocess.run([str(fastdds), 'shm', 'clean'], capture_output=True, timeout=30)
+def shm_files(pid):
+    """Names of the Fast DDS files in SHM that process `pid` has open or mapped (none once it is gone)."""
+    proc = Path('/proc', str(pid))
+    paths = set()
+    with contextlib.suppress(OSError):  # gone, or another user's
+        for fd in (proc / 'fd').iterdir():
+            with contextlib.suppress(OSError):  # closed meanwhile
+                paths.add(os.readlink(fd))
+    with contextlib.suppress(OSError):
+        paths.update(line.split(maxsplit=5)[-1] for line in (proc / 'maps').read_text().splitlines())
+    return {path[len(f'{SHM}/'):] for path in paths if path.startswith((f'{SHM}/fastrtps_', f'{SHM}/sem.fastrtps_'))}
+
+
+def remove_unused_shm(names):
+    """Remove the Fast DDS files `names` in SHM (with the mutex of each port) that no live process has open or
+    mapped."""
+    in_use = set().union(*(shm_files(proc.name) for proc in Path('/proc').iterdir() if proc.name.isdigit()))
+    for name in names - in_use:
+        files = [name]
+        if re.fullmatch(r'fastrtps_port\d+', name) and f'sem.{name}_mutex' not in in_use:
+            files.append(f'sem.{name}_mutex')  # the port's mutex, which its users open only briefly
+        for file in files:
+            with contextlib.suppress(OSError):  # gone already, or another user's
+                (SHM / file).unlink()
 
 
 # ---- a launch: the four nodes and the recorder, until the identifier's final estimate is recorded ----

@@ -6,11 +6,11 @@ as a live identifier takes them: at most 50 ms of bag time ahead of its latest /
 /emla/parameters is then not played. Without an identifier, --rate 0 sends everything at once.
 /clock follows the stamps, so nodes with use_sim_time run on the bag's time. At the end /emla/plant/done
 carries the end of the played data, as the plant sends it, so a live identifier publishes its final estimate
-(see emla_core.nodes.common).
+(see emla_core.nodes.common). The bag is read by emla_core.bag (MCAP): a corrupt chunk is skipped with a warning.
 """
+import itertools
 import sys
 import time
-from pathlib import Path
 
 from emla_core import topics
 from emla_core.bag import typestore
@@ -28,7 +28,7 @@ Messages go out in time order, paced by their stamps scaled by --rate. With --ra
 live identifier node takes them (at most 50 ms of bag time ahead of its latest estimate; the bag's own
 /emla/parameters is then not played), or all at once without one. /clock follows the stamps, so nodes with
 use_sim_time run on the bag's time. At the end /emla/plant/done carries the end of the data, so a live
-identifier publishes its final estimate.
+identifier publishes its final estimate. A corrupt chunk of the bag is skipped with a warning.
 """
 PLAYED_TYPES = (SAMPLE_FRAME, PARAMETER_ESTIMATE)
 LEAD = 50_000_000        # ns of bag time --rate 0 runs ahead of the identifier (well within the 1000-frame queues)
@@ -47,21 +47,23 @@ def add_arguments(parser):
                         help='wait up to S seconds for a subscriber on every played topic (default 1)')
 
 
-def _open(path):
-    from rosbags.highlevel import AnyReader, AnyReaderError
-    if not Path(path).exists():
-        raise InputError(f'{path}: no such file or directory')
-    reader = AnyReader([Path(path)], default_typestore=typestore())
-    try:
-        reader.open()
-    except (AnyReaderError, OSError, ValueError, KeyError) as exc:
-        raise InputError(f'{path}: unreadable bag: {exc}') from None
-    return reader
+def _open(args):
+    """The played topics {topic: message type} of the bag, the stamp of the first message (ns) and the messages
+    (topic, type, stamp ns, CDR bytes) in time order. A bag without any fails here, before ROS starts."""
+    from emla_core.bag import bag_topics, iter_serialized
+    played = {topic: msgtype for topic, msgtype in bag_topics(args.bag).items()
+              if msgtype in PLAYED_TYPES and (not args.topics or topic in args.topics)}
+    messages = iter_serialized(args.bag, list(played)) if played else iter(())
+    first = next(messages, None)
+    if first is None:
+        raise InputError(f'{args.bag}: no SampleFrame or ParameterEstimate messages on '
+                         f'{", ".join(args.topics) if args.topics else "any topic"}')
+    return played, first[2], itertools.chain([first], messages)
 
 
-def _frame_end(connection, stamp, raw):
+def _frame_end(msgtype, stamp, raw):
     """The end of a SampleFrame's samples (stamp + n * period), in ns."""
-    msg = typestore().deserialize_cdr(raw, connection.msgtype)
+    msg = typestore().deserialize_cdr(raw, msgtype)
     return stamp + round(len(msg.data) * msg.sample_period * 1e9)
 
 
@@ -118,52 +120,45 @@ def run(args):
 
     if args.rate < 0:
         raise InputError(f'--rate must be >= 0, got {args.rate}')
-    reader = _open(args.bag)
-    try:
-        connections = [c for c in reader.connections if c.msgtype in PLAYED_TYPES
-                       and (not args.topics or c.topic in args.topics)]
-        if not connections:
-            raise InputError(f'{args.bag}: no SampleFrame or ParameterEstimate messages on '
-                             f'{", ".join(args.topics) if args.topics else "any topic"}')
-        with ros_node('emla_play') as (node, executor):
-            publishers = {c.topic: node.create_publisher(
-                message_class(c.msgtype), c.topic,
-                common.FRAME_QOS if c.msgtype == SAMPLE_FRAME else common.LATCHED_QOS) for c in connections}
-            clock = node.create_publisher(Clock, topics.CLOCK_TOPIC, common.CLOCK_QOS)
-            done = node.create_publisher(message_class('builtin_interfaces/msg/Time'), topics.DONE_TOPIC,
-                                         common.LATCHED_QOS)
-            unheard = _wait_for_subscribers(publishers, args.wait)
-            if unheard:
-                print(f'emla play: no subscriber (yet) of {", ".join(unheard)}', file=sys.stderr)
-            pace = None
-            if args.rate == 0 and _live_identifier(node):
-                pace = IdentifierPace(node, executor, reader.start_time)
-                connections = [c for c in connections if c.topic != topics.PARAMETERS_TOPIC]
-                if topics.PARAMETERS_TOPIC in publishers:
-                    node.destroy_publisher(publishers.pop(topics.PARAMETERS_TOPIC))
-                print('emla play: paced by the live identifier', file=sys.stderr)
-            count, now, last_frames = 0, -1, {}
-            wall = time.monotonic()
-            for connection, stamp, raw in reader.messages(connections=connections):
-                if args.rate > 0:
-                    time.sleep(max(0.0, wall + (stamp - reader.start_time) * 1e-9 / args.rate - time.monotonic()))
-                elif pace:
-                    pace.wait_for(stamp)
-                if stamp > now:
-                    now = stamp
-                    clock.publish(Clock(clock=messages.time_msg(now)))
-                publishers[connection.topic].publish(raw)
-                if connection.msgtype == SAMPLE_FRAME:
-                    last_frames[connection.topic] = (connection, stamp, raw)
-                count += 1
-            end = _data_end(last_frames)
-            if end is not None:
-                clock.publish(Clock(clock=messages.time_msg(end)))
-                done.publish(messages.time_msg(end))
-            for publisher in (*publishers.values(), done):
-                publisher.wait_for_all_acked(Duration(seconds=ACK_TIMEOUT))
-            print(f'emla play: {count} messages on {len(publishers)} topics, {(now - reader.start_time) * 1e-9:.3f} s '
-                  f'of bag time in {time.monotonic() - wall:.2f} s', file=sys.stderr)
-    finally:
-        reader.close()
+    played, start, bag = _open(args)
+    with ros_node('emla_play') as (node, executor):
+        publishers = {topic: node.create_publisher(
+            message_class(msgtype), topic,
+            common.FRAME_QOS if msgtype == SAMPLE_FRAME else common.LATCHED_QOS) for topic, msgtype in played.items()}
+        clock = node.create_publisher(Clock, topics.CLOCK_TOPIC, common.CLOCK_QOS)
+        done = node.create_publisher(message_class('builtin_interfaces/msg/Time'), topics.DONE_TOPIC,
+                                     common.LATCHED_QOS)
+        unheard = _wait_for_subscribers(publishers, args.wait)
+        if unheard:
+            print(f'emla play: no subscriber (yet) of {", ".join(unheard)}', file=sys.stderr)
+        pace = None
+        if args.rate == 0 and _live_identifier(node):
+            pace = IdentifierPace(node, executor, start)
+            if topics.PARAMETERS_TOPIC in publishers:
+                node.destroy_publisher(publishers.pop(topics.PARAMETERS_TOPIC))
+            print('emla play: paced by the live identifier', file=sys.stderr)
+        count, now, last_frames = 0, -1, {}
+        wall = time.monotonic()
+        for topic, msgtype, stamp, raw in bag:
+            if topic not in publishers:
+                continue
+            if args.rate > 0:
+                time.sleep(max(0.0, wall + (stamp - start) * 1e-9 / args.rate - time.monotonic()))
+            elif pace:
+                pace.wait_for(stamp)
+            if stamp > now:
+                now = stamp
+                clock.publish(Clock(clock=messages.time_msg(now)))
+            publishers[topic].publish(raw)
+            if msgtype == SAMPLE_FRAME:
+                last_frames[topic] = (msgtype, stamp, raw)
+            count += 1
+        end = _data_end(last_frames)
+        if end is not None:
+            clock.publish(Clock(clock=messages.time_msg(end)))
+            done.publish(messages.time_msg(end))
+        for publisher in (*publishers.values(), done):
+            publisher.wait_for_all_acked(Duration(seconds=ACK_TIMEOUT))
+        print(f'emla play: {count} messages on {len(publishers)} topics, {(now - start) * 1e-9:.3f} s '
+              f'of bag time in {time.monotonic() - wall:.2f} s', file=sys.stderr)
     return 0

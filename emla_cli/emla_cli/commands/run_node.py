@@ -3,6 +3,7 @@
 The node gets `--ros-args --params-file FILE` (a ROS 2 YAML params file; the defaults are in each package's
 config/NODE.yaml). SIGINT/SIGTERM stop it cleanly (exit status 0).
 """
+import re
 import signal
 import sys
 from importlib.metadata import entry_points
@@ -20,7 +21,8 @@ def description():
 Run one node of the suite in this process, as `ros2 run PACKAGE NODE` does on a full ROS 2 install.
 
 The node reads a ROS 2 YAML params file (--params-file; each package's config/NODE.yaml holds the
-defaults). SIGINT/SIGTERM stop it cleanly with exit status 0; bad parameters give one line and status 2.
+defaults). SIGINT/SIGTERM stop it cleanly with exit status 0; bad parameters or an invalid params file give
+one line and status 2.
 """
 
 
@@ -42,9 +44,30 @@ def run(args):
         raise InputError(f'unknown node {args.node!r}; choose one of {", ".join(sorted(known))}')
     ros_args = []
     if args.params_file is not None:
-        if not Path(args.params_file).is_file():
-            raise InputError(f'{args.params_file}: no such params file')
         ros_args = ['--ros-args', '--params-file', args.params_file]
+        _check_params_file(args.params_file, ros_args)
     for signum in (signal.SIGINT, signal.SIGTERM):  # until the node takes over: stop at once, cleanly
         signal.signal(signum, lambda *_: sys.exit(0))
     return known[args.node].load()([f'emla-{args.node}', *ros_args])
+
+
+def _check_params_file(path, ros_args):
+    """One line naming the file and its problem if it is not YAML or not a ROS 2 params file, where rclpy.init
+    would fail with a traceback. Its structure is checked by rcl's own parser, without a ROS context."""
+    import yaml
+    from rclpy.utilities import remove_ros_args
+    if not Path(path).is_file():
+        raise InputError(f'{path}: no such params file')
+    try:
+        list(yaml.compose_all(Path(path).read_text(), Loader=yaml.SafeLoader))  # the syntax only, as rcl reads it
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark
+        raise InputError(f'{path}: not YAML: {exc.problem} (line {mark.line + 1}, column {mark.column + 1})') from None
+    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
+        raise InputError(f'{path}: unreadable params file: {" ".join(str(exc).split())}') from None
+    try:
+        remove_ros_args(['emla', *ros_args])
+    except RuntimeError as exc:  # rcl: "... Error: PROBLEM at line N, at SOURCE:LINE, at SOURCE:LINE"
+        problem = re.search(r'Error: (.*?)\s*(, at /|$)', ' '.join(str(exc).split()))
+        raise InputError(f'{path}: not a ROS 2 params file ({{NODE: {{ros__parameters: {{NAME: VALUE}}}}}}): '
+                         f'{problem.group(1) if problem else str(exc)}') from None

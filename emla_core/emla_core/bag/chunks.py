@@ -14,7 +14,7 @@ from emla_core.errors import InputError
 from emla_core.recording import Recording
 from emla_core.topics import NAMESPACE, SAMPLE_FRAME
 
-from .reader import MCAP_ERRORS, bag_files, read_bag
+from .reader import MCAP_ERRORS, bag_files, chunk_data, read_bag, reporting_skipped, unreadable
 
 _MCAP_MESSAGE = 0x05      # the opcode of an MCAP Message record
 _DECODE_BYTES = 1 << 20   # uncompressed chunk data decoded at a time
@@ -27,13 +27,11 @@ def iter_chunks(path, signals=None, chunk_samples=1 << 14):
     signals: the names the parts carry (default: all); all of the bag's signals are aligned, as read_bag does.
     Each signal's frames must be stored in time order (the suite stores frames at their stamps), where read_bag
     also accepts them shuffled. A file without a summary and chunk index (e.g. a bare .mcap whose writer was
-    killed) is read whole by read_bag and comes as one part.
+    killed) is read whole by read_bag and comes as one part. A corrupt chunk is skipped as read_bag skips it.
     """
     if isinstance(chunk_samples, bool) or not isinstance(chunk_samples, int) or chunk_samples < 1:
         raise ValueError(f'chunk_samples must be a positive integer, got {chunk_samples!r}')
     path = Path(path)
-    if not path.exists():
-        raise InputError(f'{path}: no such file or directory')
     files, custom = bag_files(path)
     layouts = _signal_channels(files)
     if layouts is None:
@@ -42,15 +40,19 @@ def iter_chunks(path, signals=None, chunk_samples=1 << 14):
         yield recording
         return
     names = sorted({topic[len(NAMESPACE):] for _, channels in layouts for topic in channels.values()})
+    if not names:
+        raise InputError(f'{path}: no SampleFrame topics under {NAMESPACE}')
     aligner = _Aligner(path, names, names if signals is None else [n for n in names if n in signals],
                        chunk_samples, custom)
-    for file, channels in layouts:
-        slot_of_channel = np.full(max(channels, default=0) + 1, -1, dtype=np.int64)
-        for channel, topic in channels.items():
-            slot_of_channel[channel] = names.index(topic[len(NAMESPACE):])
-        for frames in _decoded_chunks(file, slot_of_channel, len(names)):
-            yield from aligner.add(*frames)
-    yield from aligner.finish()
+    skipped = []
+    with reporting_skipped(skipped):
+        for file, channels in layouts:
+            slot_of_channel = np.full(max(channels, default=0) + 1, -1, dtype=np.int64)
+            for channel, topic in channels.items():
+                slot_of_channel[channel] = names.index(topic[len(NAMESPACE):])
+            for frames in _decoded_chunks(file, slot_of_channel, len(names), skipped.append):
+                yield from aligner.add(*frames)
+        yield from aligner.finish()
 
 
 class _Aligner:
@@ -78,8 +80,11 @@ class _Aligner:
         return self._parts(final=False)
 
     def finish(self):
-        if len(self.start) < len(self.names):  # summaries that count frames the chunks do not hold
-            raise InputError(f'{self.path}: no frames of {", ".join(n for n in self.names if n not in self.start)}')
+        # A signal without frames (all in skipped chunks, or counted by a summary only) is absent, as from read_bag.
+        self.names = [name for name in self.names if name in self.start]
+        if not self.names:
+            raise InputError(f'{self.path}: no SampleFrame topics under {NAMESPACE}')
+        self.queues = {name: queue for name, queue in self.queues.items() if name in self.start}
         return self._parts(final=True)
 
     def _frames(self, name, stamps, periods, lengths):
@@ -185,13 +190,11 @@ def _summary(file):
         return None
 
 
-def _decoded_chunks(file, slot_of_channel, slots):
+def _decoded_chunks(file, slot_of_channel, slots, on_corrupt):
     """_decode_frames of the chunks of an MCAP file, in file order, a few together (the records of consecutive
-    chunks, uncompressed, are one valid sequence of records). The chunk index is read here, file by file: over
-    thousands of files it would take memory in proportion to the record."""
-    from mcap.data_stream import ReadDataStream
-    from mcap.records import Chunk
-    from mcap.stream_reader import get_chunk_data_stream
+    chunks, uncompressed, are one valid sequence of records); a corrupt chunk is left out after
+    on_corrupt(CorruptChunk). The chunk index is read here, file by file: over thousands of files it would take
+    memory in proportion to the record."""
     try:
         with file.open('rb') as f:
             summary = make_reader(f).get_summary()
@@ -200,10 +203,10 @@ def _decoded_chunks(file, slot_of_channel, slots):
             chunk_indexes = sorted(summary.chunk_indexes, key=lambda c: c.chunk_start_offset)
             batch, size = [], 0
             for j, index in enumerate(chunk_indexes):
-                f.seek(index.chunk_start_offset + 1 + 8)  # past the record's opcode and length
-                stream, length = get_chunk_data_stream(Chunk.read(ReadDataStream(f)))
-                batch.append(stream.read(length))
-                size += length
+                data = chunk_data(f, file, chunk_indexes, j, on_corrupt)
+                if data is not None:
+                    batch.append(data)
+                    size += len(data)
                 if size >= _DECODE_BYTES or j == len(chunk_indexes) - 1:
                     *frames, bad = _decode_frames(np.frombuffer(b''.join(batch), np.uint8), slot_of_channel, slots)
                     if bad >= 0:
@@ -212,7 +215,7 @@ def _decoded_chunks(file, slot_of_channel, slots):
                     yield frames
                     batch, size = [], 0
     except MCAP_ERRORS as exc:
-        raise InputError(f'{file}: unreadable MCAP: {" ".join(str(exc).split()) or type(exc).__name__}') from None
+        raise unreadable(file, exc) from None
 
 
 @numba.njit(cache=True)

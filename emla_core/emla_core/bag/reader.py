@@ -1,12 +1,31 @@
-"""Reading rosbag2 directories (or bare .mcap files) of the suite's topics whole: read_bag, iter_messages."""
+"""Reading rosbag2 directories (or bare .mcap files) of the suite's topics: read_bag (whole), iter_messages,
+iter_serialized, bag_topics.
+
+A file with a chunk index is read chunk by chunk, and a corrupt chunk (its record, decompression or CRC fails)
+is skipped and described (CorruptChunk: its file, number and the time span of its messages). read_bag and
+iter_chunks name it in the error its loss may cause (a gap in a signal, ...), else in a warning once done
+(logging, one line). A file without a chunk index is read straight through, and any damage refuses it.
+"""
+import collections
+import contextlib
+import heapq
+import itertools
+import logging
 import struct
 from dataclasses import dataclass
+from io import BytesIO
 from pathlib import Path
 
 import numpy as np
 import yaml
+from mcap.data_stream import ReadDataStream
 from mcap.exceptions import McapError
-from mcap.reader import make_reader
+from mcap.opcode import Opcode
+from mcap.reader import NonSeekingReader, make_reader
+from mcap.records import Chunk, Message
+from mcap.stream_reader import get_chunk_data_stream
+from rosbags.serde import SerdeError
+from zstandard import ZstdError
 
 from emla_core.errors import InputError
 from emla_core.messages import estimate_std, estimate_values, frame_data
@@ -15,6 +34,10 @@ from emla_core.topics import (NAMESPACE, PARAMETER_ESTIMATE, PARAMETERS_TOPIC, S
                               stamp_to_ns)
 
 from .schema import typestore
+
+log = logging.getLogger(__name__)
+# What damaged MCAP data raise: the mcap library, the file, struct and zstd decompression.
+MCAP_ERRORS = (McapError, OSError, ValueError, KeyError, EOFError, IndexError, struct.error, ZstdError)
 
 
 def _finite(values):
@@ -29,67 +52,186 @@ class BagContents:
     metadata: dict         # custom_data of the bag
 
 
+@dataclass(frozen=True)
+class CorruptChunk:
+    """A chunk of an MCAP file that could not be read: where it is and the time span of its messages (ns)."""
+    file: Path
+    number: int            # in file order, from 1
+    count: int             # chunks in the file
+    start: int
+    end: int
+    problem: str
+
+    def __str__(self):
+        return (f'corrupt chunk {self.number} of {self.count} of {self.file} (messages from t = '
+                f'{self.start * 1e-9:.6f} to {self.end * 1e-9:.6f} s): {self.problem}')
+
+
+def warn_skipped(chunk):
+    """The default on_corrupt: one line (a logging warning) that names the skipped CorruptChunk."""
+    log.warning('warning: skipped the %s', chunk)
+
+
+def one_line(exc):
+    """The message of an exception on one line (YAML and MCAP errors span several)."""
+    return ' '.join(str(exc).split()) or type(exc).__name__
+
+
+def unreadable(file, exc):
+    """The InputError of an MCAP file that cannot be read."""
+    return InputError(f'{file}: unreadable MCAP: {one_line(exc)}')
+
+
 def bag_files(path):
     """The MCAP files of a bag directory (or the .mcap file itself) and its custom data."""
     if path.is_file():
         return [path], {}
+    if not path.exists():
+        raise InputError(f'{path}: no such file or directory')
     meta_path = path / 'metadata.yaml'
     if not meta_path.exists():
         raise InputError(f'{path}: not a rosbag2 directory (no metadata.yaml)')
     try:
         info = yaml.safe_load(meta_path.read_text())['rosbag2_bagfile_information']
     except (yaml.YAMLError, KeyError, TypeError) as exc:
-        problem = ' '.join(str(exc).split())   # YAML errors span several lines
-        raise InputError(f'{meta_path}: unreadable metadata: {problem}') from None
+        raise InputError(f'{meta_path}: unreadable metadata: {one_line(exc)}') from None
     if info.get('storage_identifier') != 'mcap':
         raise InputError(f'{path}: storage {info.get("storage_identifier")!r} is not supported (mcap only)')
     return [path / p for p in info.get('relative_file_paths', [])], dict(info.get('custom_data') or {})
 
 
-MCAP_ERRORS = (McapError, OSError, ValueError, KeyError, EOFError, IndexError, struct.error)  # unreadable files
-
-
-def iter_messages(path, topics=None):
-    """(topic, msgtype, stamp_ns, message) of a bag directory or .mcap file, file by file."""
-    path = Path(path)
-    if not path.exists():
-        raise InputError(f'{path}: no such file or directory')
-    store = typestore()
-    files, _ = bag_files(path)
-    for file in files:
+def bag_topics(path):
+    """{topic: message type} of the channels with messages in a bag, from its MCAP summaries."""
+    topics = {}
+    for file in bag_files(Path(path))[0]:
         try:
             with file.open('rb') as f:
-                for schema, channel, message in make_reader(f).iter_messages(topics=topics):
-                    yield channel.topic, schema.name, message.log_time, store.deserialize_cdr(message.data,
-                                                                                               schema.name)
+                summary = make_reader(f).get_summary()
         except MCAP_ERRORS as exc:
-            raise InputError(f'{file}: unreadable MCAP: {" ".join(str(exc).split()) or type(exc).__name__}') from None
+            raise unreadable(file, exc) from None
+        if summary is None:
+            raise InputError(f'{file}: unreadable MCAP: no summary section (its writer did not finish it)')
+        statistics = summary.statistics
+        topics.update({c.topic: summary.schemas[c.schema_id].name for c in summary.channels.values()
+                       if c.schema_id in summary.schemas
+                       and (statistics is None or statistics.channel_message_counts.get(c.id))})
+    return topics
+
+
+def chunk_data(f, file, chunks, k, on_corrupt):
+    """The uncompressed records of chunks[k] (the chunk indexes of the open MCAP `file`, in file order); None if
+    the chunk is corrupt, after on_corrupt(CorruptChunk). Its record is read as long as the index says, and its
+    CRC checked."""
+    index = chunks[k]
+    try:
+        f.seek(index.chunk_start_offset + 1 + 8)  # past the record's opcode and length
+        chunk = Chunk.read(ReadDataStream(BytesIO(f.read(index.chunk_length - 1 - 8))))
+        if (chunk.compression, chunk.uncompressed_size) != (index.compression, index.uncompressed_size):
+            raise ValueError('its header differs from the chunk index')
+        stream, length = get_chunk_data_stream(chunk, validate_crc=True)
+        return stream.read(length)
+    except MCAP_ERRORS as exc:
+        on_corrupt(CorruptChunk(file, k + 1, len(chunks), index.message_start_time, index.message_end_time,
+                                one_line(exc)))
+        return None
+
+
+@contextlib.contextmanager
+def reporting_skipped(skipped):
+    """Around the use of what was read past the corrupt chunks `skipped` (a list that fills while it is read):
+    an InputError raised names them (their loss may be its cause), else each is a warning once it is done."""
+    try:
+        yield
+    except InputError as exc:
+        if not skipped:
+            raise
+        raise InputError(f'{exc}, after skipping ' + ' and '.join(f'the {c}' for c in skipped)) from None
+    for chunk in skipped:
+        warn_skipped(chunk)
+
+
+def iter_serialized(path, topics=None, on_corrupt=warn_skipped):
+    """(topic, message type, log time ns, CDR bytes) of a bag directory or .mcap file: file by file, each file
+    in log-time order; only `topics` if given. A corrupt chunk is skipped after on_corrupt(CorruptChunk)."""
+    for file in bag_files(Path(path))[0]:
+        try:
+            with file.open('rb') as f:
+                summary = make_reader(f).get_summary()
+                if summary is None or not summary.chunk_indexes:  # read straight through, the CRCs checked
+                    f.seek(0)
+                    for schema, channel, message in NonSeekingReader(f, validate_crcs=True).iter_messages(topics):
+                        if schema is not None:
+                            yield channel.topic, schema.name, message.log_time, message.data
+                else:
+                    yield from _indexed(f, file, summary, topics, on_corrupt)
+        except MCAP_ERRORS as exc:
+            raise unreadable(file, exc) from None
+
+
+def _indexed(f, file, summary, topics, on_corrupt):
+    """The messages of an MCAP file with a chunk index in log-time order; as the mcap reader does, a chunk is
+    read when its first message is due."""
+    channels = {i: (c.topic, summary.schemas[c.schema_id].name) for i, c in summary.channels.items()
+                if c.schema_id in summary.schemas and (topics is None or c.topic in topics)}
+    chunks = sorted(summary.chunk_indexes, key=lambda c: c.chunk_start_offset)
+    due = collections.deque(sorted(range(len(chunks)), key=lambda k: chunks[k].message_start_time))
+    heap, order = [], itertools.count()  # (log time, order read, message)
+    while due or heap:
+        if due and (not heap or chunks[due[0]].message_start_time <= heap[0][0]):
+            for message in _messages(chunk_data(f, file, chunks, due.popleft(), on_corrupt) or b''):
+                if message.channel_id in channels:
+                    heapq.heappush(heap, (message.log_time, next(order), message))
+        else:
+            message = heapq.heappop(heap)[2]
+            yield (*channels[message.channel_id], message.log_time, message.data)
+
+
+def _messages(records):
+    """The Message records among uncompressed chunk records."""
+    stream = ReadDataStream(BytesIO(records))
+    while stream.count < len(records):
+        opcode, length = stream.read1(), stream.read8()
+        if opcode == Opcode.MESSAGE:
+            yield Message.read(stream, length)
+        else:
+            stream.read(length)
+
+
+def iter_messages(path, topics=None, on_corrupt=warn_skipped):
+    """(topic, message type, log time ns, message) of a bag directory or .mcap file, as iter_serialized."""
+    store = typestore()
+    for topic, msgtype, stamp, data in iter_serialized(path, topics, on_corrupt):
+        try:
+            message = store.deserialize_cdr(data, msgtype)
+        except (SerdeError, KeyError) as exc:  # not the CDR of a message of its type, or a type unknown here
+            raise InputError(f'{path}: unreadable {msgtype} on {topic} (logged at {stamp * 1e-9:.6f} s): '
+                             f'{one_line(exc)}') from None
+        yield topic, msgtype, stamp, message
 
 
 def read_bag(path):
     """The signals (assembled from SampleFrames), parameter estimates and custom metadata of a bag."""
     path = Path(path)
-    if not path.exists():
-        raise InputError(f'{path}: no such file or directory')
     _, custom = bag_files(path)
-    frames, estimates, truth = {}, [], []
-    for topic, msgtype, stamp, msg in iter_messages(path):
-        if msgtype == SAMPLE_FRAME and topic.startswith(NAMESPACE):
-            frames.setdefault(topic[len(NAMESPACE):], []).append(
-                (stamp_to_ns(msg.header.stamp), msg.sample_period, frame_data(msg)))
-        elif msgtype == PARAMETER_ESTIMATE and topic in (PARAMETERS_TOPIC, TRUE_PARAMETERS_TOPIC):
-            stamp_s = stamp_to_ns(msg.header.stamp) * 1e-9
-            values = _finite(estimate_values(msg))
-            if topic == TRUE_PARAMETERS_TOPIC:
-                truth.append((stamp_s, values))
-            else:
-                estimates.append((stamp_s, values, _finite(estimate_std(msg))))
-    if not frames:
-        raise InputError(f'{path}: no SampleFrame topics under {NAMESPACE}')
+    frames, estimates, truth, skipped = {}, [], [], []
+    with reporting_skipped(skipped):
+        for topic, msgtype, stamp, msg in iter_messages(path, on_corrupt=skipped.append):
+            if msgtype == SAMPLE_FRAME and topic.startswith(NAMESPACE):
+                frames.setdefault(topic[len(NAMESPACE):], []).append(
+                    (stamp_to_ns(msg.header.stamp), msg.sample_period, frame_data(msg)))
+            elif msgtype == PARAMETER_ESTIMATE and topic in (PARAMETERS_TOPIC, TRUE_PARAMETERS_TOPIC):
+                stamp_s = stamp_to_ns(msg.header.stamp) * 1e-9
+                values = _finite(estimate_values(msg))
+                if topic == TRUE_PARAMETERS_TOPIC:
+                    truth.append((stamp_s, values))
+                else:
+                    estimates.append((stamp_s, values, _finite(estimate_std(msg))))
+        if not frames:
+            raise InputError(f'{path}: no SampleFrame topics under {NAMESPACE}')
+        recording = _assemble(frames, path, custom)
     estimates.sort(key=lambda e: e[0])
     truth.sort(key=lambda e: e[0])
-    return BagContents(recording=_assemble(frames, path, custom), estimates=estimates, truth=truth,
-                       metadata=custom)
+    return BagContents(recording=recording, estimates=estimates, truth=truth, metadata=custom)
 
 
 def _assemble(frames, path, custom):
@@ -101,7 +243,7 @@ def _assemble(frames, path, custom):
     if not period > 0:
         raise InputError(f'{path}: sample period {period} is not positive')
     series = {}
-    for name, fs in frames.items():
+    for name, fs in sorted(frames.items()):  # in the order iter_chunks checks them, to name the same gap
         fs.sort(key=lambda f: f[0])
         start = fs[0][0]
         expected = start
