@@ -82,9 +82,19 @@ class Candidate:
     def force(self, s):
         return None
 
+    def held(self, data):
+        """Samples (boolean array) at which the effect holds the moving part still, as static friction does:
+        the force balance does not apply there (the part does not accelerate whatever the other forces);
+        None if it never does."""
+        return None
+
     def settings(self):
         """Fixed settings of this variant, {name: value}, reported with the fitted parameters."""
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+    def effect_name(self, values):
+        """The name of the effect these fitted parameter values describe (default: the candidate's)."""
+        return self.name
 
     def reported(self, values, stds, model):
         """{name: (value, one-sigma)} of the added parameters; `model` holds the re-identified nominal ones."""
@@ -97,10 +107,12 @@ class CoulombFriction(Candidate):
     """Fc d(t): dry friction whose direction d follows the measured motion with a pre-sliding band.
 
     d = (x - y) / delta, y the play (backlash) operator of width delta on the measured position: d is
-    +-1 while sliding and keeps its last value while the part sticks, where a friction that holds the
-    part at its breakaway force stays (the elasto-plastic limit of the Dahl model). delta is searched
-    on a grid from a few times the position noise; the friction therefore reads the measured motion, in
-    simulation too.
+    +-1 while sliding. Where the measured position stays within the band the part sticks, in one of two
+    ways searched as variants: rigidly (static friction balances whatever else acts, so the force balance
+    says only that it does not accelerate: `held`), or elastically (the friction Fc d pulls it back within
+    the band: the elasto-plastic limit of the Dahl model, a pre-sliding stiffness Fc / delta). delta is
+    searched on a grid from a few times the position noise; the friction therefore reads the measured
+    motion, in simulation too.
     """
 
     name: ClassVar[str] = 'coulomb_friction'
@@ -110,41 +122,56 @@ class CoulombFriction(Candidate):
     signs: ClassVar[tuple] = (1,)
     presliding: float = 0.0   # m
     direction: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
+    stuck: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
 
     def variants(self, data):
         x = data.signals['position']
         # white position noise has third differences of variance 20 sigma^2 (MAD for robustness)
         noise = max(1.4826 * np.median(np.abs(np.diff(x, 3))) / np.sqrt(20.0), 1e-6 * np.ptp(x))
-        return [dataclasses.replace(self, presliding=float(delta), direction=_play_direction(x, delta))
-                for delta in 3.0 * noise * np.array([1.0, 2.0, 4.0])]
+        variants = []
+        for delta in 3.0 * noise * np.array([1.0, 2.0, 4.0, 8.0]):
+            play = _play(x, delta)
+            # stuck parts either held still (rigid sticking) or pulled back elastically within the band
+            variants += [dataclasses.replace(self, presliding=float(delta), **play),
+                         dataclasses.replace(self, presliding=float(delta), direction=play['direction'])]
+        return variants
 
     def force(self, s):
         return self.direction[s.index][None]
 
+    def held(self, data):
+        return self.stuck
+
     def settings(self):
-        return {'presliding_displacement': self.presliding}
+        return {'presliding_displacement': self.presliding, 'rigid_sticking': self.stuck is not None}
 
 
-def _play_direction(x, width):
-    """(x - y) / width with y the play operator: y_k = clip(y_k-1, x_k - width, x_k + width)."""
+def _play(x, width):
+    """{'direction': (x - y) / width, 'stuck': y did not move into sample k} with y the play operator:
+    y_k = clip(y_k-1, x_k - width, x_k + width). While the measured position stays within the band, the
+    part is taken to stick."""
     y = np.empty_like(x)
     last = float(x[0])
     for k, xk in enumerate(x.tolist()):
         last = min(max(last, xk - width), xk + width)
         y[k] = last
-    return (x - y) / width
+    return {'direction': (x - y) / width, 'stuck': np.concatenate(([False], np.diff(y) == 0.0))}
 
 
 @register_candidate
 @dataclasses.dataclass(frozen=True)
 class ReturnSpring(Candidate):
-    """k (x - x_mean); the spring's rest position merges with the load force (only k is separable)."""
+    """k (x - x_mean); the spring's rest position merges with the load force (only k is separable).
+
+    k may have either sign: k > 0 is a return spring (valve actuators); k < 0 a magnetic (reluctance)
+    stiffness, a force growing toward the pole (solenoids, moving-magnet actuators), named
+    `magnetic_stiffness` with the negative spring_stiffness."""
 
     name: ClassVar[str] = 'return_spring'
     parameters: ClassVar[tuple] = ('spring_stiffness',)
     units: ClassVar[tuple] = ('N/m',)
     acts_on: ClassVar[tuple] = ('mechanical', 'force')
-    signs: ClassVar[tuple] = (1,)
+    signs: ClassVar[tuple] = (0,)
     center: float = 0.0
 
     def variants(self, data):
@@ -152,6 +179,9 @@ class ReturnSpring(Candidate):
 
     def force(self, s):
         return (s.position - self.center)[None]
+
+    def effect_name(self, values):
+        return 'magnetic_stiffness' if values[0] < 0 else self.name
 
 
 @register_candidate
@@ -173,7 +203,7 @@ class ResistanceDrift(Candidate):
         span = len(data) * data.sample_period
         power = data.signals['current'] ** 2
         variants = []
-        for tau in span * np.geomspace(0.01, 10.0, 7):
+        for tau in span * np.geomspace(0.01, 10.0, 13):
             a = np.exp(-data.sample_period / tau)
             heating = lfilter([1.0 - a], [1.0, -a], power)
             variants.append(dataclasses.replace(self, thermal_time_constant=float(tau),
@@ -190,16 +220,26 @@ class ResistanceDrift(Candidate):
 @register_candidate
 @dataclasses.dataclass(frozen=True)
 class InductanceSaturation(Candidate):
-    """Incremental inductance L(I) = L0 + L2 I^2 (L2 < 0 when the iron saturates)."""
+    """Incremental inductance L(I) = L0 + L2 g(I), g = I^2 / (1 + (I/I_s)^2) (L2 < 0 when the iron saturates).
+
+    With L2 = -L0 / I_s^2 this is L0 / (1 + (I/I_s)^2), the usual saturation curve; for small currents
+    (I_s -> infinity, also searched) it is the quadratic L0 + L2 I^2. I_s is searched on a grid of the
+    record's peak current."""
 
     name: ClassVar[str] = 'inductance_saturation'
     parameters: ClassVar[tuple] = ('inductance_quadratic',)
     units: ClassVar[tuple] = ('H/A^2',)
     acts_on: ClassVar[tuple] = ('electrical',)
     signs: ClassVar[tuple] = (-1,)
+    saturation_scale: float = np.inf   # A: I_s
+
+    def variants(self, data):
+        peak = np.max(np.abs(data.signals['current']))
+        return [self] + [dataclasses.replace(self, saturation_scale=float(peak * f))
+                         for f in np.geomspace(0.4, 4.0, 15)]
 
     def inductance(self, s):
-        return (s.current ** 2)[None]
+        return (s.current ** 2 / (1.0 + (s.current / self.saturation_scale) ** 2))[None]
 
     def reported(self, values, stds, model):
         out = super().reported(values, stds, model)
@@ -263,3 +303,40 @@ class SensorDelay(Candidate):
 
     def reported(self, values, stds, model):
         return {f'{name}_delay': (d * model['sample_period'], 0.0) for name, d in self.delays}
+
+
+@register_candidate
+@dataclasses.dataclass(frozen=True)
+class DriveVoltageError(Candidate):
+    """The drive applies less than the voltage recorded: Vd sign(I) (an H-bridge's dead time drops about that
+    much, against the current) plus a constant offset V0; the record holds the commanded voltage.
+
+    sign(I) is smoothed as tanh(I / I_eps) (the drop fades as the current, and so the time the bridge's
+    diodes conduct, goes to zero); I_eps is searched on a grid from 0.1 % to 30 % of the peak current. A constant
+    current-sensor offset I0 leaves exactly the signature of V0 = -R I0 (its mechanical part merges with the
+    load force), so the two cannot be told apart; the report gives both readings of the offset.
+    """
+
+    name: ClassVar[str] = 'drive_voltage_error'
+    parameters: ClassVar[tuple] = ('dead_time_drop', 'voltage_offset')
+    units: ClassVar[tuple] = ('V', 'V')
+    acts_on: ClassVar[tuple] = ('electrical',)
+    signs: ClassVar[tuple] = (1, 0)
+    current_scale: float = 0.0   # A: I_eps
+
+    def variants(self, data):
+        peak = max(np.max(np.abs(data.signals['current'])), np.finfo(float).tiny)
+        return [dataclasses.replace(self, current_scale=float(scale)) for scale in peak * np.geomspace(1e-3, 0.3, 11)]
+
+    def voltage(self, s):
+        return np.stack((np.tanh(s.current / self.current_scale), np.ones_like(s.current)))
+
+    def settings(self):
+        return {'current_scale': self.current_scale}
+
+    def reported(self, values, stds, model):
+        out = super().reported(values, stds, model)
+        out['equivalent_current_offset'] = (float(-values[1] / model['resistance']),
+                                             float(stds[1] / model['resistance']))
+        return out
+

@@ -35,12 +35,14 @@ import numpy as np
 from scipy.signal import lfilter
 
 from emla_identification.physical import coil_parameters, force_parameters
-from emla_identification.regressors import rows, tie
+from emla_identification.regressors import instruments, rows, tie
 
 from .data import State, regression_rows
 
 FOLDS = 10
 PREFILTER = 0.9
+RELINEARISATIONS = 4
+SYSTEMATIC_PREFILTERS = (0.8, 0.95)   # alternatives whose estimates bound the misfit bias (with_systematic)
 NOMINAL = {'electrical': ('resistance', 'inductance', 'emf_constant'),
            'mechanical': ('mass', 'damping', 'load_force'), 'force': ('mass', 'damping', 'load_force')}
 
@@ -87,7 +89,7 @@ class ElectricalRows:
         return np.hstack(blocks)
 
 
-def mechanical_rows(data, model, candidates, prefilter=True):
+def mechanical_rows(data, model, candidates, rho=PREFILTER):
     """(Phi tied, Y, candidate force columns) of the mechanical (or force) regression about `model`."""
     kind = data.mechanical
     phi, y = rows(kind, data.signals, data.sample_period)
@@ -101,20 +103,31 @@ def mechanical_rows(data, model, candidates, prefilter=True):
         else:
             blocks.append(-(f[:, 1:-3] + 4.0 * f[:, 2:-2] + f[:, 3:-1]).T / (6.0 * model['mass']))
     extra = np.hstack(blocks)
-    if prefilter:
-        rho = PREFILTER
+    held = held_samples(data, candidates)
+    if held is not None:   # rows whose whole second difference is stuck: no acceleration, whatever the forces
+        k = regression_rows(data)
+        stuck = held[k - 1] & held[k] & held[k + 1]
+        phi, extra = np.where(stuck[:, None], 0.0, phi), np.where(stuck[:, None], 0.0, extra)
+    if rho is not None:
         filtered = lfilter([1.0 - rho], [1.0, -2.0 * rho, rho * rho], np.column_stack((phi, y, extra)), axis=0)
         phi, y, extra = filtered[:, :phi.shape[1]], filtered[:, phi.shape[1]], filtered[:, phi.shape[1] + 1:]
     return phi, y, extra
 
 
-def design(data, model, candidates, prefilter=True):
-    """{kind: (Phi tied, Y, candidate columns)} about `model`."""
+def held_samples(data, candidates):
+    """Samples at which some candidate holds the part still (Candidate.held), or None."""
+    masks = [m for m in (c.held(data) for c in candidates) if m is not None]
+    return np.logical_or.reduce(masks) if masks else None
+
+
+def design(data, model, candidates, rho=PREFILTER):
+    """{kind: (Phi tied, Y, candidate columns)} about `model`; the mechanical rows prefiltered with `rho`
+    (None: not prefiltered)."""
     out = {}
     if data.electrical:
         electrical = ElectricalRows(data, model)
         out['electrical'] = (electrical.phi, electrical.y, electrical.columns(candidates))
-    out[data.mechanical] = mechanical_rows(data, model, candidates, prefilter)
+    out[data.mechanical] = mechanical_rows(data, model, candidates, rho)
     return out
 
 
@@ -133,6 +146,8 @@ class Fit:
     parameters: dict       # nominal physical parameters (greybox names) of this fit, + 'sample_period'
     std: dict              # their jackknife one-sigma
     linearised_about: dict
+    left_out: np.ndarray   # (FOLDS, coefficients): the fit without each block ([nominal of each kind | added])
+    bounds: np.ndarray     # regression rows of each block: bounds[f] .. bounds[f + 1]
 
     def added_slices(self):
         """(candidate, slice of `added`) pairs."""
@@ -142,19 +157,34 @@ class Fit:
             start += len(c.parameters)
         return out
 
+    def heldout_residuals(self):
+        """{kind: one-step residual of each regression row, each block's from the fit that left it out}."""
+        out, start = {}, 0
+        added = self.left_out[:, sum(len(t) for t in self.theta.values()):]
+        for kind, (phi, y, extra) in design(self.data, self.linearised_about, self.candidates,
+                                            rho=None).items():
+            coefficients = self.left_out[:, start:start + phi.shape[1]]
+            start += phi.shape[1]
+            e = np.empty(len(y))
+            for f in range(FOLDS):
+                r = slice(self.bounds[f], self.bounds[f + 1])
+                e[r] = y[r] - phi[r] @ coefficients[f] - extra[r] @ added[f]
+            out[kind] = e
+        return out
+
     def residuals(self):
         """{kind: one-step residual of each regression row (rows: data.regression_rows)}."""
         return {kind: y - phi @ self.theta[kind] - extra @ self.added
                 for kind, (phi, y, extra) in design(self.data, self.linearised_about, self.candidates,
-                                                    prefilter=False).items()}
+                                                    rho=None).items()}
 
 
 def fit(data, candidates=(), reference=None, *, relinearise=True):
     """Nominal + candidates fitted to data, linearised about and weighted like `reference` (a Fit).
 
     Without a reference, the nominal model is fitted first and serves as one. With `relinearise` the
-    result is refitted once about itself, so that the candidates' columns (and the tie) follow the
-    re-identified model rather than the reference.
+    result is refitted about itself (up to RELINEARISATIONS times), so that the candidates' columns (and
+    the tie) follow the re-identified model rather than the reference.
     """
     candidates = tuple(candidates)
     if reference is None:
@@ -164,9 +194,26 @@ def fit(data, candidates=(), reference=None, *, relinearise=True):
         if not candidates:
             return reference
     result = _solve(data, candidates, reference.parameters, reference.sigma)
-    if relinearise and physical(result.parameters):
-        result = _solve(data, candidates, result.parameters, reference.sigma)
+    # the candidate columns are scaled by the model they are linearised about (1/m, beta, ...), so their
+    # parameters are right only once that model is the estimate itself: refit until it stops moving
+    for _ in range(RELINEARISATIONS if relinearise else 0):
+        if not physical(result.parameters):
+            break
+        previous, result = result, _solve(data, candidates, result.parameters, reference.sigma)
+        if all(abs(result.parameters[k] - v) <= 1e-9 * abs(v) for k, v in previous.parameters.items()):
+            break
     return result
+
+
+def with_systematic(fit, alternatives=SYSTEMATIC_PREFILTERS):
+    """(std of the nominal parameters, std of the added ones) of a Fit with a systematic part: the largest
+    change of each estimate when the mechanical rows are prefiltered otherwise (a prefilter weighs the
+    frequencies differently; estimates that move with it carry a misfit bias the jackknife cannot see),
+    added in quadrature to the jackknife sigma."""
+    alternatives = [_solve(fit.data, fit.candidates, fit.linearised_about, fit.sigma, rho) for rho in alternatives]
+    shift = {k: max(abs(a.parameters[k] - fit.parameters[k]) for a in alternatives) for k in fit.std}
+    added_shift = np.max([np.abs(a.added - fit.added) for a in alternatives], axis=0) if len(fit.added) else fit.added
+    return ({k: float(np.hypot(s, shift[k])) for k, s in fit.std.items()}, np.hypot(fit.added_std, added_shift))
 
 
 def physical(parameters):
@@ -185,30 +232,39 @@ def _coil_guess(data):
     return {'resistance': resistance, 'inductance': resistance * data.sample_period / -np.log(alpha)}
 
 
-def _solve(data, candidates, model, sigma):
-    blocks = design(data, model, candidates)
+def _solve(data, candidates, model, sigma, rho=PREFILTER):
+    """The Fit of `candidates` about `model` with row weights 1/sigma: the electrical rows by instrumental
+    variables (their regressors, candidate columns included, one row earlier: the current noise of row k
+    sits in its regressors and its output, not in those of row k-1; greybox.py does the same), the
+    mechanical rows by least squares."""
+    blocks = design(data, model, candidates, rho)
     kinds = tuple(blocks)
     widths = [blocks[k][0].shape[1] for k in kinds]
     q = next(iter(blocks.values()))[2].shape[1]
     n = sum(widths) + q
     index = regression_rows(data)
     bounds = np.searchsorted(index * FOLDS // len(data), np.arange(FOLDS + 1))   # contiguous blocks
-    sums = np.zeros((FOLDS, len(kinds), n + 1, n + 1))   # per block and regression: Z'Z, Z = [Phi | Y] / sigma
+    # per block and regression: Z'Z and W'Z, Z = [Phi | Y] / sigma, W the instruments (Z for least squares)
+    sums = np.zeros((FOLDS, len(kinds), n + 1, n + 1))
+    instrumented = np.zeros_like(sums)
     for j, kind in enumerate(kinds):
         phi, y, extra = blocks[kind]
         z = np.column_stack((phi, extra, y))
+        w = z if kind != 'electrical' else _electrical_instruments(data, model, z)
         # this regression's columns within the stacked [nominal of each kind | candidates | Y]
         at = np.r_[sum(widths[:j]):sum(widths[:j + 1]), sum(widths):n + 1]
         for f in range(FOLDS):
-            zf = z[bounds[f]:bounds[f + 1]]
+            zf, wf = z[bounds[f]:bounds[f + 1]], w[bounds[f]:bounds[f + 1]]
             sums[f, j][np.ix_(at, at)] = zf.T @ zf / sigma[kind] ** 2
-    total = sums.sum(axis=(0, 1))
-    theta = _least_squares(total, n)
-    left_out = np.array([_least_squares(total - sums[f].sum(axis=0), n) for f in range(FOLDS)])
+            instrumented[f, j][np.ix_(at, at)] = wf.T @ zf / sigma[kind] ** 2
+    total, total_w = sums.sum(axis=(0, 1)), instrumented.sum(axis=(0, 1))
+    theta = _solve_normal(total_w, total, n)
+    left_out = np.array([_solve_normal(total_w - instrumented[f].sum(axis=0), total - sums[f].sum(axis=0), n)
+                         for f in range(FOLDS)])
     heldout = np.array([[_rss(sums[f, j], t, n) for j in range(len(kinds))] for f, t in enumerate(left_out)])
     rows_per_kind = len(index)
     # residual std of each equation, floored for noise-free data (it becomes a row weight)
-    rms = {kind: sigma[kind] * max(np.sqrt(_rss(sums[:, j].sum(axis=0), theta, n) / (rows_per_kind - n)),
+    rms = {kind: sigma[kind] * max(np.sqrt(max(_rss(sums[:, j].sum(axis=0), theta, n), 0.0) / (rows_per_kind - n)),
                                    1e-9 * np.sqrt(sums[:, j, n, n].sum() / rows_per_kind))
            for j, kind in enumerate(kinds)}
     nominal = slice(0, sum(widths))
@@ -218,9 +274,19 @@ def _solve(data, candidates, model, sigma):
     return Fit(data, candidates, {k: theta[sum(widths[:j]):sum(widths[:j + 1])] for j, k in enumerate(kinds)},
                theta[added], _jackknife_std(left_out[:, added]), sigma, rms, heldout,
                dict(zip(names, map(float, values[0])), sample_period=data.sample_period),
-               dict(zip(names, map(float, _jackknife_std(values[1:])))), model)
+               dict(zip(names, map(float, _jackknife_std(values[1:])))), model, left_out, bounds)
 
 
+def _electrical_instruments(data, model, z):
+    """The electrical rows' instruments, laid out like z = [Phi tied | candidate columns | Y]: the regressors'
+    instruments of regressors.instruments (tied), the candidate columns one row earlier, and Y as it is
+    (its row of W'Z is not used)."""
+    h = _decay(model, data.sample_period)
+    zeta = instruments('electrical', data.signals, data.sample_period) @ tie('electrical', h).T
+    width = zeta.shape[1]
+    extra = z[:, width:-1]
+    lagged = np.vstack((extra[:1], extra[:-1]))
+    return np.column_stack((zeta, lagged, z[:, -1]))
 def _physical(kinds, coefficients, ts):
     """Physical parameters (NOMINAL order) from rows of tied coefficients."""
     with np.errstate(all='ignore'):
@@ -233,14 +299,14 @@ def _jackknife_std(left_out):
     return np.sqrt((FOLDS - 1) / FOLDS * np.sum(deviation ** 2, axis=0))
 
 
-def _least_squares(s, n):
-    """theta minimising the sum of squares held in s = Z'Z (columns scaled for conditioning)."""
-    g, b = s[:n, :n], s[:n, n]
-    if not np.all(np.isfinite(s)):
+def _solve_normal(gw, g, n):
+    """theta of the normal equations held in gw = W'Z (instruments; = Z'Z for least squares), Z = [Phi | Y];
+    columns scaled by g = Z'Z for conditioning."""
+    if not (np.all(np.isfinite(gw)) and np.all(np.isfinite(g))):
         return np.full(n, np.nan)
-    scale = np.sqrt(np.diag(g))
+    scale = np.sqrt(np.diag(g)[:n])
     scale[scale == 0] = 1.0
-    return np.linalg.lstsq(g / np.outer(scale, scale), b / scale, rcond=1e-13)[0] / scale
+    return np.linalg.lstsq(gw[:n, :n] / np.outer(scale, scale), gw[:n, n] / scale, rcond=1e-13)[0] / scale
 
 
 def _rss(s, theta, n):

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .data import State
-from .fit import ElectricalRows
+from .fit import ElectricalRows, held_samples
 
 MECHANICAL_TIME = 0.01   # s: about half the mechanical time constant m/B of Table 1 (18 ms)
 VELOCITY_SPAN = 5        # samples each side of a start used to estimate its velocity
@@ -76,6 +76,7 @@ def predict_position(fit):
     starts = np.arange(VELOCITY_SPAN, len(data) - horizon)
     x = data.signals['position'][starts]
     v = _start_velocity(data, force, p)[starts]
+    held = held_samples(data, fit.candidates)
     for j in range(horizon):
         k = starts + j
         net = force[k] - p['load_force']
@@ -85,7 +86,11 @@ def predict_position(fit):
                 f = c.force(state)
                 if f is not None:
                     net = net - fit.added[part] @ f
-        x, v = x + to_x * v + force_to_x * net, a * v + force_to_v * net
+        moved, v = x + to_x * v + force_to_x * net, a * v + force_to_v * net
+        if held is not None:   # stuck over the interval: the part stays where it is
+            stuck = held[k] & held[k + 1]
+            moved, v = np.where(stuck, x, moved), np.where(stuck, 0.0, v)
+        x = moved
     index = starts + horizon
     return Prediction('position', index, data.signals['position'][index], x, horizon)
 

@@ -1,5 +1,11 @@
-"""The model-discrepancy workflow: fit the nominal model, rank candidate effects, add the best, re-identify,
-and report the gap between model and measurement before and after; then look again for a second effect.
+"""The model-discrepancy workflow: is the nominal model adequate? If not, name the missing effects one by one
+(rank the candidates, add the best, re-identify), until the model is adequate or no candidate explains what
+is left; report the gap between model and measurement before and after, and where what is left lies.
+
+Adequacy (adequacy.py): each equation's held-out one-step residual against the floor the sensor noise
+alone would leave in it. The verdict: `adequate` (the nominal model fits to the noise floor), `explained`
+(the named effects leave nothing), `unexplained` (a disagreement remains that no candidate explains). What
+is left is located (dependence.py) on the signals it is a smooth function of.
 
 Ranking and significance. Every candidate is fitted together with the nominal parameters (fit.py) and
 judged on held-out data: the record is cut into FOLDS contiguous blocks, each block is predicted by the
@@ -18,11 +24,16 @@ is significant, which it is when
      scores below 0.2 %, the effects of physics.md at realistic strengths 39 % and more),
   3. its parameters are resolved: some parameter is at least MIN_T jackknife sigmas from zero (block
      jackknife, again robust to coloured residuals; a delay has no continuous parameter), and
-  4. they have the sign physics gives them (Candidate.signs: friction and a return spring oppose motion
-     and displacement, heating raises R, saturation lowers L): a wrong sign means the term is patching
+  4. they have the sign physics gives them (Candidate.signs: friction opposes motion, heating raises R,
+     saturation lowers L; a stiffness may have either sign): a wrong sign means the term is patching
      some other misfit.
 Fitting noise cannot pass 1 and 2 together: a term that only fits noise predicts held-out blocks worse.
+A significant candidate is named only if, added, it removes at least MIN_SHARE of the disagreement left
+(the low-band residual power above the noise floor, in floor units, summed over the equations); otherwise
+it is a partial match and the verdict stays `unexplained`. Up to MAX_EFFECTS effects are named in turn;
+the final model is the nominal one with all of them, re-identified jointly.
 """
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -31,17 +42,20 @@ from scipy.ndimage import uniform_filter1d
 from emla_core.data import as_recording
 from emla_core.errors import InputError
 
+from .adequacy import EQUATION, assess_adequacy
 from .candidates import library
 from .data import Data, regression_rows
-from .fit import FOLDS, fit, physical
+from .dependence import dependence
+from .fit import FOLDS, design, fit, physical, with_systematic
 from .predict import MECHANICAL_TIME, predict
 from .residuals import binned, cross_correlation, whiteness
 
 MIN_BLOCKS = 9
 MIN_SCORE = 0.05
 MIN_T = 3.0
+MIN_SHARE = 0.7
+MAX_EFFECTS = 4
 SMOOTHING = 1e-3   # s, of the residuals binned against the signals
-EQUATION = {'electrical': 'electrical', 'mechanical': 'mechanical', 'force': 'mechanical'}   # regression kinds
 
 
 def method(data):
@@ -58,7 +72,7 @@ def method(data):
 class Assessment:
     """One candidate, at its best variant, judged against a base model."""
 
-    name: str
+    name: str                   # the effect's name (a candidate may name its result by the sign found)
     fit: object                 # base + this candidate, fitted
     score: float
     per_equation: dict          # kind -> fraction of that equation's held-out error removed
@@ -67,19 +81,26 @@ class Assessment:
     settings: dict
     resolved: bool
     plausible: bool
+    share: float = float('nan')  # of the disagreement left that it removes (set when it is the best)
 
     @property
     def significant(self):
         return self.blocks_improved >= MIN_BLOCKS and self.score >= MIN_SCORE and self.resolved and self.plausible
 
     @property
+    def named(self):
+        return self.significant and self.share >= MIN_SHARE
+
+    @property
     def evidence(self):
         params = '; '.join(f'{k} = {_format(v, s)}' for k, (v, s) in self.parameters.items())
         settings = ', '.join(f'{k} {v:.3g}' for k, v in self.settings.items() if isinstance(v, (int, float)))
         equations = ', '.join(f'{EQUATION[k]} {100 * v:.1f} %' for k, v in self.per_equation.items())
+        partial = (f'; a partial match: removes only {100 * self.share:.0f} % of the disagreement'
+                   if self.significant and not self.named else '')
         return (f'{params or "no parameters"}{f" ({settings})" if settings else ""}; removes {equations} of the '
                 f'held-out one-step error; better in {self.blocks_improved}/{FOLDS} held-out blocks'
-                f'{"" if self.plausible else "; parameter of the wrong sign"}')
+                f'{"" if self.plausible else "; parameter of the wrong sign"}{partial}')
 
     def to_dict(self):
         return {'effect': self.name, 'score': round(self.score, 6), 'significant': bool(self.significant),
@@ -91,45 +112,106 @@ def _format(value, sigma):
 
 
 @dataclass
+class Stage:
+    """An effect named and added: the model with it (and those before), how adequate it is, its predictions."""
+
+    assessment: Assessment
+    adequacy: dict          # equation -> adequacy.Adequacy of the model with the effect
+    predictions: dict       # signal -> Prediction of the model with the effect
+
+
+@dataclass
 class Diagnosis:
     data: Data
     nominal: object                  # Fit
     candidates: list                 # Assessments against the nominal model, best first
-    final: object                    # Fit with the named effect (the nominal one when none)
+    nominal_adequacy: dict           # equation -> Adequacy
     before: dict                     # signal -> Prediction of the nominal model
-    after: dict                      # signal -> Prediction of the final model
-    second: list = field(default_factory=list)   # Assessments against the final model, best first
-    second_after: dict = field(default_factory=dict)   # signal -> Prediction with both effects
+    stages: list = field(default_factory=list)   # Stages, in the order the effects were named
+    partial: object = None           # the best candidate after the last stage when it is only a partial match
+
+    @property
+    def final(self):
+        """The final model: the nominal one with every named effect, re-identified jointly."""
+        return self.stages[-1].assessment.fit if self.stages else self.nominal
+
+    @property
+    def final_adequacy(self):
+        return self.stages[-1].adequacy if self.stages else self.nominal_adequacy
+
+    @property
+    def after(self):
+        return self.stages[-1].predictions if self.stages else self.before
 
     @property
     def main(self):
-        return _best(self.candidates)
+        """The first effect named, or None."""
+        return self.stages[0].assessment if self.stages else None
 
     @property
-    def second_effect(self):
-        return _best(self.second)
+    def verdict(self):
+        if all(a.adequate for a in self.nominal_adequacy.values()):
+            return 'adequate'
+        return 'explained' if all(a.adequate for a in self.final_adequacy.values()) else 'unexplained'
+
+    @functools.cached_property
+    def final_std(self):
+        """(one-sigma of the final model's nominal parameters, of its added ones): jackknife and systematic."""
+        return with_systematic(self.final)
 
     def added_parameters(self):
-        return self.main.parameters if self.main else {}
+        """{name: (value, one-sigma)} of every named effect's parameters, from the final joint fit."""
+        final, added_std = self.final, self.final_std[1]
+        out = {}
+        for candidate, part in final.added_slices():
+            out.update(candidate.reported(final.added[part], added_std[part], final.parameters))
+        return out
+
+    def disagreement(self, model='final'):
+        """{equation: size against the noise floor and the signals it depends on} of the final (or nominal)
+        model."""
+        fit, adequacy = (self.final, self.final_adequacy) if model == 'final' else (self.nominal,
+                                                                                   self.nominal_adequacy)
+        index = regression_rows(fit.data)
+        rows = design(fit.data, fit.linearised_about, fit.candidates, rho=None)
+        out = {}
+        for kind, (phi, _, extra) in rows.items():
+            a = adequacy[EQUATION[kind]]
+            out[a.equation] = a.to_dict()
+            if not a.adequate:   # what is left, and what it depends on
+                singles, pairs = dependence(a.residual, fit.data, index, np.hstack((phi, extra)),
+                                            fit.data.sample_period)
+                out[a.equation].update(depends_on=singles[:5], jointly=pairs[:3])
+        return out
 
     def to_dict(self):
-        main, second = self.main, self.second_effect
-        out = {
-            'missing_effect': main.name if main else 'none',
+        verdict = self.verdict
+        added = self.added_parameters()
+        final = self.final
+        effects = []
+        for stage in self.stages:
+            a = stage.assessment
+            effects.append({'effect': a.name,
+                            'parameters': {k: v for k, (v, _) in added.items() if k in a.parameters},
+                            'std': {k: s for k, (_, s) in added.items() if k in a.parameters},
+                            'score': round(a.score, 6), 'share': round(a.share, 4),
+                            'gap_after': {s: round(p.nrmse, 6) for s, p in stage.predictions.items()}})
+        return {
+            'verdict': verdict,
+            'missing_effect': self.main.name if self.main else ('none' if verdict == 'adequate' else 'unexplained'),
+            'effects': effects,
+            'disagreement': self.disagreement('final'),
+            'disagreement_nominal': self.disagreement('nominal'),
             'candidates': [a.to_dict() for a in self.candidates],
             'gap_before': {s: round(p.nrmse, 6) for s, p in self.before.items()},
             'gap_after': {s: round(p.nrmse, 6) for s, p in self.after.items()},
-            'added_parameters': {k: v for k, (v, _) in self.added_parameters().items()},
-            'added_parameters_std': {k: s for k, (_, s) in self.added_parameters().items()},
+            'added_parameters': {k: v for k, (v, _) in added.items()},
+            'added_parameters_std': {k: s for k, (_, s) in added.items()},
             'nominal_parameters': _rounded(self.nominal.parameters),
-            'reidentified_parameters': _rounded(self.final.parameters),
-            'second_effect': second.to_dict() if second else None,
+            'reidentified_parameters': _rounded(final.parameters),
+            'reidentified_parameters_std': _rounded(self.final_std[0]),
             'method': method(self.data),
         }
-        if second:
-            out['second_effect']['added_parameters'] = {k: v for k, (v, _) in second.parameters.items()}
-            out['second_effect']['gap_after'] = {s: round(p.nrmse, 6) for s, p in self.second_after.items()}
-        return out
 
 
 def _rounded(parameters):
@@ -137,12 +219,15 @@ def _rounded(parameters):
 
 
 def diagnose(data=None, names=None, *, sample_period=None, voltage=None, current=None, position=None, force=None):
-    """Find which effect the two-equation actuator model is missing in a record, add it and show the gap shrink.
+    """Find what the two-equation actuator model is missing in a record: say whether it is adequate, name the
+    missing effects, add them and show the gap shrink, or say where an unexplained disagreement lies.
 
-    The nominal model is identified, each subsystem is predicted from its measured inputs, and each candidate
-    effect (coulomb_friction, return_spring, resistance_drift, inductance_saturation, force_constant_variation,
-    sensor_delay, and any added with `register_candidate`) is judged by the share of the held-out prediction
-    error it removes; the best one is named only when that is significant.
+    The nominal model is identified and its held-out residuals compared with the sensor-noise floor. If it
+    does not fit to that floor, each candidate effect (coulomb_friction, return_spring (magnetic_stiffness
+    when negative), resistance_drift, inductance_saturation, force_constant_variation, sensor_delay,
+    drive_voltage_error, and any added with `register_candidate`) is judged by the share of the held-out
+    prediction error it removes; the best one is named when that is significant and removes most of the
+    disagreement, added, and the search repeats (up to four effects).
 
     Parameters
     ----------
@@ -158,8 +243,9 @@ def diagnose(data=None, names=None, *, sample_period=None, voltage=None, current
     Returns
     -------
     Diagnosis
-        `to_dict()` gives the `emla discrepancy` JSON (missing_effect, candidates, gap before and after,
-        added parameters); `write_report(diagnosis, directory)` writes the Markdown report with plots.
+        `verdict` ('adequate', 'explained' or 'unexplained'); `to_dict()` gives the `emla discrepancy` JSON
+        (verdict, missing_effect, effects, disagreement, candidates, gap before and after, parameters);
+        `write_report(diagnosis, directory)` writes the Markdown report with plots.
 
     Raises
     ------
@@ -170,8 +256,8 @@ def diagnose(data=None, names=None, *, sample_period=None, voltage=None, current
     --------
     >>> from emla_identification.discrepancy import diagnose
     >>> diagnosis = diagnose('bags/example_discrepancy')            # doctest: +SKIP
-    >>> diagnosis.to_dict()['missing_effect']                      # doctest: +SKIP
-    'coulomb_friction'
+    >>> diagnosis.verdict, diagnosis.to_dict()['missing_effect']    # doctest: +SKIP
+    ('explained', 'coulomb_friction')
     """
     data = Data.from_recording(as_recording(data, sample_period=sample_period, voltage=voltage, current=current,
                                             position=position, force=force))
@@ -181,13 +267,31 @@ def diagnose(data=None, names=None, *, sample_period=None, voltage=None, current
             raise InputError(f'{data.source}: the nominal model cannot be identified from these data (' +
                              ', '.join(f'{k} = {v:.4g}' for k, v in nominal.parameters.items()) +
                              '); does the recording excite the actuator?')
+        adequacy = assess_adequacy(nominal)
         ranked = rank(nominal, library(data, names))
-        main = _best(ranked)
-        final = main.fit if main else nominal
-        second = rank(final, [c for c in library(data, names) if c.name != main.name]) if main else []
-        before = predict(nominal)
-        return Diagnosis(data, nominal, ranked, final, before, predict(final) if main else before, second,
-                         predict(_best(second).fit) if _best(second) else {})
+        diagnosis = Diagnosis(data, nominal, ranked, adequacy, predict(nominal))
+        if diagnosis.verdict == 'adequate':
+            return diagnosis
+        current, left = nominal, ranked
+        while len(diagnosis.stages) < MAX_EFFECTS and not all(a.adequate for a in adequacy.values()):
+            best = left[0] if left and left[0].significant else None
+            if best is None:
+                break
+            after = assess_adequacy(best.fit)
+            best.share = 1.0 - _disagreement(after) / _disagreement(adequacy)
+            if not best.named:
+                diagnosis.partial = best
+                break
+            diagnosis.stages.append(Stage(best, after, predict(best.fit)))
+            current, adequacy = best.fit, after
+            named = {stage.assessment.fit.candidates[-1].name for stage in diagnosis.stages}
+            left = rank(current, [c for c in library(data, names) if c.name not in named])
+        return diagnosis
+
+
+def _disagreement(adequacy):
+    """The low-band residual power above the noise floor, in floor units, summed over the equations."""
+    return sum(max(a.ratio - 1.0, 0.0) for a in adequacy.values())
 
 
 def _best(assessments):
@@ -216,8 +320,9 @@ def assess(base, candidate):
     parameters = best.reported(values, stds, result.parameters)
     resolved = not len(values) or bool(np.any(np.abs(values) >= MIN_T * stds))
     plausible = all(sign * value >= 0 for sign, value in zip(candidate.signs, values))
-    return Assessment(candidate.name, result, float(gain.sum()), dict(zip(kinds, map(float, gain.sum(axis=0)))),
-                      int(np.sum(gain.sum(axis=1) > 0)), parameters, best.settings(), resolved, plausible)
+    return Assessment(best.effect_name(values), result, float(gain.sum()),
+                      dict(zip(kinds, map(float, gain.sum(axis=0)))), int(np.sum(gain.sum(axis=1) > 0)),
+                      parameters, best.settings(), resolved, plausible)
 
 
 @dataclass
