@@ -9,7 +9,8 @@ A mapping 'NAME=TOPIC[:FIELD[INDEX]]' takes signal NAME from:
                                        position[0], position[slider]
   emla_msgs/SampleFrame                its samples at its sample period
 Time comes from each message's header stamp where it has one, else from the time it was logged. The
-signals are then put on one grid (emla_core.sampling.align).
+signals are then put on one grid (emla_core.sampling.align). The identifier node reads live topics with the
+same mapping (its input_topics; emla_core.nodes.common.StandardTopics), message by message: message_values.
 """
 import re
 from dataclasses import dataclass
@@ -45,16 +46,16 @@ class TopicSignal:
         return self.topic + (f':{self.field}' if self.field else '') + (f'[{self.index}]' if self.index else '')
 
 
-def parse_topics(text):
-    """{signal: TopicSignal} of a --topics value 'NAME=TOPIC[:FIELD[INDEX]][,...]'."""
+def parse_topics(text, flag='--topics'):
+    """{signal: TopicSignal} of a --topics value 'NAME=TOPIC[:FIELD[INDEX]][,...]' (`flag` names it in errors)."""
     specs = {}
-    for name, value in parse_assignments('--topics', text, SIGNAL_NAMES).items():
+    for name, value in parse_assignments(flag, text, SIGNAL_NAMES).items():
         topic, _, field = value.partition(':')
         if not topic.startswith('/'):
-            raise InputError(f'--topics {name}={value}: a topic name starts with /')
+            raise InputError(f'{flag} {name}={value}: a topic name starts with /')
         match = _FIELD.match(field) if field else None
         if field and not match:
-            raise InputError(f'--topics {name}={value}: expected TOPIC:FIELD or TOPIC:FIELD[INDEX]')
+            raise InputError(f'{flag} {name}={value}: expected TOPIC:FIELD or TOPIC:FIELD[INDEX]')
         specs[name] = TopicSignal(topic, *(match.groups() if match else (None, None)))
     return specs
 
@@ -160,14 +161,13 @@ def _read(reader, path, specs, connections):
     try:
         for connection, log_time, raw in reader.messages(connections=wanted):
             msg = reader.deserialize(raw, connection.msgtype)
-            header = getattr(msg, 'header', None)
-            stamp = stamp_to_ns(header.stamp) if header is not None else 0
+            stamp = header_stamp(msg)
             for name, spec in by_topic[connection.topic]:
                 times, values, periods = samples[name]
                 if not stamp:
                     stamped[name] = False
                 times.append(stamp if stamp else log_time)
-                values.append(_values(msg, connection.msgtype, spec, path))
+                values.append(message_values(msg, connection.msgtype, spec, path))
                 periods.append(getattr(msg, 'sample_period', 0.0))
     except InputError:
         raise
@@ -182,41 +182,51 @@ def _read(reader, path, specs, connections):
     return series, origin * 1e-9, {name: 'header stamps' if ok else 'log time' for name, ok in stamped.items()}
 
 
-def _values(msg, msgtype, spec, path):
-    """The samples (1-D array) one message carries for a signal."""
+def header_stamp(msg):
+    """The header stamp (ns) of a message (rclpy or rosbags), 0 if it has none or an unset one."""
+    header = getattr(msg, 'header', None)
+    return stamp_to_ns(header.stamp) if header is not None else 0
+
+
+def message_values(msg, msgtype, spec, where):
+    """The samples (1-D array) one message (rclpy or rosbags) of a SUPPORTED type carries for the signal
+    `spec` (a TopicSignal); errors start with `where` (the bag, ...)."""
     if msgtype in SCALARS or msgtype == SAMPLE_FRAME:
         if spec.field not in (None, 'data') or spec.index is not None:
-            raise InputError(f'{path}: {spec.describe()}: a {msgtype.split("/")[-1]} has only the field data')
+            raise InputError(f'{where}: {spec.describe()}: a {msgtype.split("/")[-1]} has only the field data')
         return np.atleast_1d(np.asarray(msg.data, dtype=float))
     if msgtype in ARRAYS:
         if spec.field not in (None, 'data'):
-            raise InputError(f'{path}: {spec.describe()}: a {msgtype.split("/")[-1]} has only the field data')
+            raise InputError(f'{where}: {spec.describe()}: a {msgtype.split("/")[-1]} has only the field data')
         data = np.asarray(msg.data, dtype=float)
         if spec.index is None:
             return data
-        return np.array([data[_element(spec, len(data), path)]])
+        return np.array([data[_element(spec, len(data), where)]])
     # JointState
     if spec.field not in ('position', 'velocity', 'effort'):
-        raise InputError(f'{path}: {spec.describe()}: give the JointState field: position, velocity or effort')
+        raise InputError(f'{where}: {spec.describe()}: give the JointState field: position, velocity or effort')
     data = np.asarray(getattr(msg, spec.field), dtype=float)
     names = list(msg.name)
     if spec.index is None:
         if len(data) != 1:
-            raise InputError(f'{path}: {spec.describe()}: {len(data)} joints ({", ".join(names)}); name one: '
+            raise InputError(f'{where}: {spec.describe()}: {len(data)} joints ({", ".join(names)}); name one: '
                              f'{spec.topic}:{spec.field}[0] or [{names[0] if names else 0}]')
         return data
-    if spec.index in names:
-        return np.array([data[names.index(spec.index)]])
-    return np.array([data[_element(spec, len(data), path)]])
+    if spec.index not in names:
+        return np.array([data[_element(spec, len(data), where)]])
+    index = names.index(spec.index)
+    if index >= len(data):   # a joint without this field (an empty effort, ...)
+        raise InputError(f'{where}: {spec.describe()}: {len(data)} {spec.field} values for {len(names)} joints')
+    return np.array([data[index]])
 
 
-def _element(spec, size, path):
+def _element(spec, size, where):
     try:
         index = int(spec.index)
     except ValueError:
-        raise InputError(f'{path}: {spec.describe()}: no joint or element {spec.index!r}') from None
+        raise InputError(f'{where}: {spec.describe()}: no joint or element {spec.index!r}') from None
     if not -size <= index < size:
-        raise InputError(f'{path}: {spec.describe()}: element {index} of {size}')
+        raise InputError(f'{where}: {spec.describe()}: element {index} of {size}')
     return index
 
 

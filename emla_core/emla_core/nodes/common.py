@@ -66,9 +66,15 @@ the lockstep goes on (it does not wait for an estimate then); the identifier ski
 usable samples for, and none of its regression rows spans them. A frame lost outright inside the lockstep
 stalls it: the next one needs the command it would have led to.
 
+Standard topics: the identifier can read a real drive's topics of standard message types instead of the
+measured frames (its input_topics; StandardTopics): each message becomes a frame on the sample grid (by its
+header stamp, else its receive time), so the same faults are found and survived.
+
 Each node: parameters declared read-only with descriptors (range, units in the description), defaults in the
-package's config/<node>.yaml; SIGINT/SIGTERM end it cleanly with exit status 0 (after the acknowledgements
-of what it published, at most ACK_TIMEOUT); bad parameters end it with one line on stderr and exit status 2.
+package's config/<node>.yaml; once constructed (warmed up, subscribed) it says 'NAME: ready (its topics)' on
+stderr; SIGINT/SIGTERM end it cleanly with exit status 0 (after the acknowledgements of what it published, at
+most ACK_TIMEOUT); bad parameters (out of range, of another type) end it with one line on stderr and exit
+status 2, as does bad input found later (EmlaNode.fail: an input topic of a type it cannot read).
 """
 import collections
 import contextlib
@@ -93,9 +99,9 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rclpy.signals import SignalHandlerOptions
 
 from emla_core.errors import InputError
-from emla_core.messages import frame_data
+from emla_core.messages import frame_data, message_class
 from emla_core.parameters import PARAMETER_UNITS, TABLE1
-from emla_core.topics import DIAGNOSTICS_TOPIC, QOS, stamp_to_ns, to_ns
+from emla_core.topics import DIAGNOSTICS_TOPIC, QOS, SAMPLE_FRAME, stamp_to_ns, to_ns
 from emla_msgs.msg import SampleFrame
 
 
@@ -109,6 +115,8 @@ def qos_profile(kind):
 
 FRAME_QOS, LATCHED_QOS, CLOCK_QOS, DIAGNOSTICS_QOS = map(qos_profile, ('frame', 'latched', 'clock', 'diagnostics'))
 ACK_TIMEOUT = 4.0  # s a stopping node waits for its readers' acknowledgements
+INPUT_DEPTH = 1000  # messages a reader of a standard input topic keeps (1 s at 1 kHz)
+DISCOVERY_PERIOD = 0.1  # s between looks at the graph for the publishers of standard input topics
 
 
 def period_samples(sample_period, control_period):
@@ -160,7 +168,8 @@ class Faults:
 
 class FrameSets:
     """Subscribes to frame topics {name: topic}; calls on_set(stamp_ns, sample_period, {name: array}) once
-    every topic has delivered its frame with that stamp (in stamp order: each topic is in order).
+    every topic has delivered its frame with that stamp (in stamp order: each topic is in order). With
+    subscribe=False it is fed by receive() instead (StandardTopics), `topics` naming the inputs in warnings.
 
     Bad input is reported to `faults` (a Faults) and survived: a frame stamped before the end of its topic's
     previous one (a duplicate, a jump back) is dropped ('stamp_back'); a gap in a topic ('missing': a lost
@@ -169,18 +178,19 @@ class FrameSets:
     period ('unmatched') gives on_set(stamp_ns, sample_period, None), so the node still learns of the
     period. 'non_finite' samples are passed on: the node knows which samples it needs."""
 
-    def __init__(self, node, topics, on_set, faults, sample_period=None):
+    def __init__(self, node, topics, on_set, faults, sample_period=None, subscribe=True):
         self._topics = topics
         self._on_set = on_set
         self._faults = faults
         self._step = None if sample_period is None else to_ns(sample_period)
         self._last = dict.fromkeys(topics)  # name -> (stamp, end) of its latest frame; end None if unknown
         self._pending = {}  # stamp -> {name: (samples, sample_period), or None if unusable}
-        for name, topic in topics.items():
-            node.create_subscription(SampleFrame, topic, lambda msg, name=name: self._receive(name, msg), FRAME_QOS)
+        for name, topic in topics.items() if subscribe else ():
+            node.create_subscription(SampleFrame, topic, lambda msg, name=name: self.receive(
+                name, stamp_to_ns(msg.header.stamp), frame_data(msg), msg.sample_period), FRAME_QOS)
 
-    def _receive(self, name, msg):
-        stamp, samples, period = stamp_to_ns(msg.header.stamp), frame_data(msg), msg.sample_period
+    def receive(self, name, stamp, samples, period):
+        """A frame of input `name`: `samples` (1-D array) from `stamp` (ns) on, `period` s apart."""
         step = to_ns(period) if 0.0 < period < 1e6 else 0  # (to_ns overflows on huge ones)
         where = f'{self._topics[name]} frame stamped {stamp} ns'
         last = self._last[name]
@@ -222,18 +232,23 @@ class AlignedSamples:
 
     Instants some topic has no samples for (lost or unusable frames, see FrameSets; faults reported there)
     are skipped: the next chunk starts later than the last one ended, at the first instant all have again.
-    Non-finite samples are passed on, in place."""
+    Non-finite samples are passed on, in place. With subscribe=False the frames come through receive()
+    (see FrameSets)."""
 
-    def __init__(self, node, topics, on_samples, faults, sample_period, boundary):
+    def __init__(self, node, topics, on_samples, faults, sample_period, boundary, subscribe=True):
         self._on_samples = on_samples
         self._step = to_ns(sample_period)
         self._boundary = boundary
         self._cursor = None  # the first instant not passed on (or skipped) yet
         self._queues = {name: [] for name in topics}  # name -> [(stamp, samples)] not passed on yet
-        self._frames = [FrameSets(node, {name: topic}, self._receive, faults, sample_period)
-                        for name, topic in topics.items()]
+        self._frames = {name: FrameSets(node, {name: topic}, self._on_set, faults, sample_period, subscribe)
+                        for name, topic in topics.items()}
 
-    def _receive(self, stamp, sample_period, frames):
+    def receive(self, name, stamp, samples, period):
+        """A frame of input `name` (see FrameSets.receive)."""
+        self._frames[name].receive(name, stamp, samples, period)
+
+    def _on_set(self, stamp, sample_period, frames):
         if frames is None:
             return  # an unusable frame: its instants will be skipped
         ((name, samples),) = frames.items()
@@ -282,6 +297,74 @@ class AlignedSamples:
         return parts[0] if len(parts) == 1 else np.concatenate(parts)
 
 
+class StandardTopics:
+    """Feeds receive(name, stamp_ns, samples, sample_period) (AlignedSamples.receive with subscribe=False) from
+    topics of standard message types that {name: TopicSignal} maps to signals (emla_core.bag.foreign, the syntax
+    of `emla identify --topics`: std_msgs Float64/32 and their MultiArrays, sensor_msgs JointState, emla_msgs
+    SampleFrame). Each message is a frame of the samples it carries for each signal, `sample_period` apart (a
+    SampleFrame's own), the first at the message's time (its header stamp where it has one, else the time the
+    node receives it) rounded to the nearest multiple of sample_period. FrameSets then finds the faults: a
+    sample whose instant was passed already ('stamp_back'), instants without one ('missing'), ...; a message
+    the mapping cannot read (no such joint or element) is 'unreadable'.
+
+    The receive time is when the node handles the message (rclpy's EventsExecutor gives no reception stamp), so
+    it jitters with the node's load by far more than a sample period of a fast drive: signals that must line up
+    sample by sample need header stamps (JointState, SampleFrame) above a few Hz.
+
+    A topic is subscribed once the graph shows a publisher of it, with their message type (another than those
+    ends the node: EmlaNode.fail) and a QoS all of them match (matching_qos). rclpy takes about 6-10k
+    messages/s at most, so one sample per message suits rates up to about 1-2 kHz; faster ones need frames."""
+
+    def __init__(self, node, signals, receive, faults, sample_period):
+        from emla_core.bag import foreign  # with rosbags: loaded only by a node that reads such topics
+        self._supported, self._stamp, self._values = foreign.SUPPORTED, foreign.header_stamp, foreign.message_values
+        self._node, self._receive, self._faults = node, receive, faults
+        self._sample_period, self._step = sample_period, to_ns(sample_period)
+        self._waiting = {}  # topic -> [(name, TopicSignal)], until it is subscribed
+        for name, spec in signals.items():
+            self._waiting.setdefault(spec.topic, []).append((name, spec))
+        self._timer = node.create_timer(DISCOVERY_PERIOD, self._discover)
+
+    def _discover(self):
+        for topic, signals in list(self._waiting.items()):
+            publishers = self._node.get_publishers_info_by_topic(topic)
+            msgtypes = sorted({publisher.topic_type for publisher in publishers})
+            if not msgtypes:
+                continue
+            if len(msgtypes) > 1 or msgtypes[0] not in self._supported:
+                self._node.fail(f'{topic} is {" and ".join(msgtypes)}; an input topic is one of '
+                                f'{", ".join(msgtype.split("/")[-1] for msgtype in self._supported)}')
+                return
+            msgtype = msgtypes[0]
+            self._node.create_subscription(message_class(msgtype), topic, lambda msg, msgtype=msgtype, signals=signals:
+                                           self._on_message(msg, msgtype, signals), matching_qos(publishers))
+            del self._waiting[topic]
+        if not self._waiting:
+            self._node.destroy_timer(self._timer)
+
+    def _on_message(self, msg, msgtype, signals):
+        time_ns = self._stamp(msg) or self._node.get_clock().now().nanoseconds
+        stamp = (time_ns + self._step // 2) // self._step * self._step
+        period = msg.sample_period if msgtype == SAMPLE_FRAME else self._sample_period
+        for name, spec in signals:
+            try:
+                samples = self._values(msg, msgtype, spec, 'unreadable message')
+            except InputError as error:
+                self._faults.report('unreadable', str(error))
+            else:
+                self._receive(name, stamp, samples, period)
+
+
+def matching_qos(publishers):
+    """A reader QoS the publishers (TopicEndpointInfo) all match, as `ros2 bag record` picks it: reliable and
+    transient local only where every one of them is; keep last INPUT_DEPTH."""
+    def offered(policy, strong, weak):
+        return strong if all(getattr(p.qos_profile, policy) == strong for p in publishers) else weak
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=INPUT_DEPTH,
+                      reliability=offered('reliability', ReliabilityPolicy.RELIABLE, ReliabilityPolicy.BEST_EFFORT),
+                      durability=offered('durability', DurabilityPolicy.TRANSIENT_LOCAL, DurabilityPolicy.VOLATILE))
+
+
 def frame_publishers(node, topics):
     return {name: node.create_publisher(SampleFrame, topic, FRAME_QOS) for name, topic in topics.items()}
 
@@ -322,10 +405,15 @@ def actuator_specs(what):
 
 
 def declare(node, specs):
-    """Declare `specs` on `node`; their values (arrays as lists, empty when unset) as a namespace."""
+    """Declare `specs` on `node`; their values (arrays as lists, empty when unset) as a namespace. A value of
+    the wrong type is a ParameterException (rclpy's check), or an InputError for an empty list where a single
+    value is declared (rclpy takes that as unset)."""
     values = {}
     for spec in specs:
         parameter = node.declare_parameter(spec.name, spec.default, spec.descriptor())
+        if parameter.type_ == Parameter.Type.NOT_SET and not isinstance(spec.default, Parameter.Type):
+            raise InputError(f'parameter {spec.name!r} is an empty list, expecting type '
+                             f'{Parameter.Type.from_parameter_value(spec.default).name!r}')
         values[spec.name] = parameter.value if parameter.type_ != Parameter.Type.NOT_SET else []
     return types.SimpleNamespace(**values)
 
@@ -333,13 +421,26 @@ def declare(node, specs):
 # ---- running ----
 
 class EmlaNode(Node):
-    """A node of the suite (namespace /emla); it ends the process when `finished` becomes true."""
+    """A node of the suite (namespace /emla); it ends the process when `finished` becomes true (with exit
+    status 2 after fail())."""
 
     NAME = ''
 
     def __init__(self):
         super().__init__(self.NAME, namespace='/emla')
         self.finished = False
+        self.error = None
+
+    def ready(self):
+        """What `run` says once the node is constructed: the topics it subscribed to and publishes."""
+        subscribed = ', '.join(dict.fromkeys(s.topic_name for s in self.subscriptions)) or 'nothing'
+        published = ', '.join(dict.fromkeys(p.topic_name for p in self.publishers
+                                            if p.topic_name != '/parameter_events')) or 'nothing'
+        return f'subscribed to {subscribed}; publishing {published}'
+
+    def fail(self, message):
+        """End the node for bad input found while it runs: `message` as its one line, exit status 2."""
+        self.error, self.finished = message, True
 
     def stop(self, executor):
         """Called once the spin loop of `run` ends: wait until readers acknowledged what was published."""
@@ -357,7 +458,8 @@ def wait_for_acknowledgements(node, timeout=ACK_TIMEOUT):
 
 def run(node_class, args=None):
     """Run one node (an EmlaNode class) until it finishes or SIGINT/SIGTERM arrives, then its stop()
-    (by default: wait for the acknowledgements of what it published); the exit status.
+    (by default: wait for the acknowledgements of what it published); the exit status. Once the node is
+    constructed (warmed up, subscribed) it prints 'NAME: ready (its ready())' on stderr.
 
     args: the command line with ROS arguments (default sys.argv)."""
     stopping = []
@@ -372,6 +474,7 @@ def run(node_class, args=None):
         return 2
     executor = EventsExecutor()  # its spin_once() loop (not spin_until_future_complete) fires timers too
     executor.add_node(node)
+    print(f'{node_class.NAME}: ready ({node.ready()})', file=sys.stderr)
     try:
         while not stopping and not node.finished:
             executor.spin_once(timeout_sec=0.05)
@@ -380,6 +483,9 @@ def run(node_class, args=None):
         executor.shutdown()
         node.destroy_node()
         rclpy.try_shutdown()
+    if node.error:
+        print(f'{node_class.NAME}: error: {node.error}', file=sys.stderr)
+        return 2
     return 0
 
 

@@ -4,6 +4,12 @@ Publishes /emla/parameters (latched) at every multiple of `publish_period` that 
 stamped with the end of the data used, and a final estimate at the end time /emla/plant/done announces
 (see emla_core.nodes.common); /diagnostics with each estimate. Bad frames (see common) are reported and
 skipped, non-finite samples too: the estimator gets only finite samples, and a gap() wherever some are missing.
+
+Its inputs are the measured /emla/ SampleFrames, or with `input_topics` a real drive's topics of standard
+message types, e.g. ['voltage=/drive/voltage', 'current=/drive/current', 'position=/joint_states:position[slider]']
+(the syntax of `emla identify --topics`): each sample goes on the sample_period grid by its message's header
+stamp, else its receive time, then takes the frames' path (common.StandardTopics). The time stamps put
+publish instants and the done signal on that time line too.
 """
 import math
 import sys
@@ -11,6 +17,7 @@ import sys
 import numpy as np
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rclpy.parameter import Parameter
 from std_msgs.msg import Header
 
 from emla_core import messages, topics
@@ -21,13 +28,21 @@ from emla_identification.physical import MODEL_PARAMETERS
 from emla_msgs.msg import ParameterEstimate
 
 SPECS = [
-    common.Spec('sample_period', 1e-4, 'sample period Ts of the frames, s', 1e-6, 1e-2),
+    common.Spec('sample_period', 1e-4, 'sample period Ts of the inputs (the grid of input_topics), s', 1e-6, 1e-2),
     common.Spec('model', 'full', f'grey-box model, one of {sorted(MODEL_PARAMETERS)}'),
     common.Spec('forgetting', 1.0, 'RLS forgetting factor lambda (1 = no forgetting), 1', 0.5, 1.0),
     common.Spec('memory_time', 0.0,
                 'memory time constant tau instead of a forgetting factor, lambda = 1 - Ts/tau (0 = unused), s',
                 0.0, 1e6),
-    common.Spec('publish_period', topics.ESTIMATE_PERIOD, 'publish an estimate at multiples of this simulated time, s', 1e-6, 1e6),
+    common.Spec('publish_period', topics.ESTIMATE_PERIOD,
+                'publish an estimate at multiples of this time (of the samples: simulated, or the inputs\' stamps), s',
+                1e-6, 1e6),
+    common.Spec('input_topics', Parameter.Type.STRING_ARRAY,
+                'inputs from topics of standard message types instead of /emla/{voltage,current,position} (empty): '
+                'NAME=TOPIC[:FIELD[INDEX]] for voltage, current and position, as `emla identify --topics` '
+                '(Float64/32, their MultiArrays, JointState, SampleFrame; type and QoS from the publishers; time: '
+                'header stamp, else when handled (jittery), to the nearest sample instant). rclpy takes ~6-10k '
+                'messages/s, so one sample per message suits rates up to ~1-2 kHz'),
 ]
 
 
@@ -50,6 +65,17 @@ def warm_up(identifier):
     estimate(identifier)
 
 
+def standard_inputs(mapping):
+    """{signal: TopicSignal} of the input_topics parameter; {} if it is empty."""
+    if not mapping:
+        return {}
+    from emla_core.bag.foreign import parse_topics  # with rosbags: loaded only when used
+    inputs = parse_topics(','.join(mapping), 'input_topics')
+    if set(inputs) != set(topics.SIGNALS):
+        raise InputError(f'input_topics maps {", ".join(inputs)}; map voltage, current and position')
+    return inputs
+
+
 class IdentifierNode(common.EmlaNode):
     NAME = 'identifier'
 
@@ -58,6 +84,7 @@ class IdentifierNode(common.EmlaNode):
         p = common.declare(self, SPECS)
         if p.model not in MODEL_PARAMETERS:
             raise InputError(f'model {p.model!r} is not one of {sorted(MODEL_PARAMETERS)}')
+        self.inputs = standard_inputs(p.input_topics)
         settings = dict(sample_period=p.sample_period, model=p.model, forgetting=p.forgetting,
                         memory_time=p.memory_time or None)
         self.identifier = OnlineIdentifier(**settings)
@@ -70,9 +97,17 @@ class IdentifierNode(common.EmlaNode):
         self.end = None  # end of the run, from /emla/plant/done
         self.estimates = self.create_publisher(ParameterEstimate, topics.PARAMETERS_TOPIC, common.LATCHED_QOS)
         self.diagnostics = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS_TOPIC, common.DIAGNOSTICS_QOS)
-        self.measured = common.AlignedSamples(self, topics.MEASURED_TOPICS, self.on_samples, common.Faults(self),
-                                             p.sample_period, self.publish_step)
+        faults = common.Faults(self)
+        self.measured = common.AlignedSamples(
+            self, {name: spec.describe() for name, spec in self.inputs.items()} or topics.MEASURED_TOPICS,
+            self.on_samples, faults, p.sample_period, self.publish_step, subscribe=not self.inputs)
+        if self.inputs:
+            common.StandardTopics(self, self.inputs, self.measured.receive, faults, p.sample_period)
         self.create_subscription(Time, topics.DONE_TOPIC, self.on_done, common.LATCHED_QOS)
+
+    def ready(self):
+        waiting = ', '.join(dict.fromkeys(spec.topic for spec in self.inputs.values()))
+        return super().ready() + (f'; subscribing to {waiting} once they have a publisher' if waiting else '')
 
     def on_samples(self, start, samples):
         signals = [samples[name] for name in ('voltage', 'current', 'position')]
