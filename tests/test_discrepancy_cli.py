@@ -63,10 +63,10 @@ def test_cli_on_the_example_bag(tmp_path):
         assert set(candidate) == {'effect', 'score', 'significant', 'evidence'}
     names = {c['effect'] for c in result['candidates']}
     assert names == {'coulomb_friction', 'return_spring', 'resistance_drift', 'inductance_saturation',
-                     'force_constant_variation', 'sensor_delay'}
+                     'force_constant_variation', 'sensor_delay', 'drive_voltage_error'}
     report = tmp_path / 'report'
     text = (report / 'report.md').read_text()
-    for figure in ('gap.png', 'residuals.png', 'correlation.png'):
+    for figure in ('gap.png', 'residuals.png', 'correlation.png', 'disagreement.png'):
         assert (report / figure).stat().st_size > 10_000
         assert f'({figure})' in text
     assert json.loads((report / 'diagnosis.json').read_text()) == result

@@ -2,18 +2,22 @@
 from pathlib import Path
 
 import numpy as np
+from scipy.ndimage import uniform_filter1d
 
+from .data import regression_rows
+from .dependence import SMOOTHING, signals_of
 from .fit import FOLDS
 from .residuals import CONFIDENCE
-from .workflow import MIN_BLOCKS, MIN_SCORE, MIN_T, localise
+from .workflow import MIN_BLOCKS, MIN_SCORE, MIN_SHARE, MIN_T, localise
 
 UNITS = {'current': 'A', 'position': 'm', 'voltage': 'V', 'force': 'N', 'time': 's', 'velocity': 'm/s',
-         'current rate': 'A/s', 'force rate': 'N/s'}
+         'acceleration': 'm/s^2', 'current rate': 'A/s', 'force rate': 'N/s', 'voltage rate': 'V/s'}
 WINDOW = 0.08   # s of record shown in the time plots, around the largest discrepancy
 
 
 def write_report(diagnosis, directory, json_text=None):
-    """Write report.md, gap.png, residuals.png, correlation.png (and diagnosis.json) into `directory`."""
+    """Write report.md, gap.png, residuals.png, correlation.png, disagreement.png (and diagnosis.json) into
+    `directory`."""
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
@@ -22,7 +26,8 @@ def write_report(diagnosis, directory, json_text=None):
     directory.mkdir(parents=True, exist_ok=True)
     before, after = localise(diagnosis.nominal), localise(diagnosis.final)
     figures = {'gap.png': _gap_figure(plt, diagnosis), 'residuals.png': _residual_figure(plt, before, after),
-               'correlation.png': _correlation_figure(plt, before, after)}
+               'correlation.png': _correlation_figure(plt, before, after),
+               'disagreement.png': _disagreement_figure(plt, diagnosis)}
     for name, figure in figures.items():
         figure.savefig(directory / name, dpi=90)
         plt.close(figure)
@@ -106,62 +111,103 @@ def _correlation_figure(plt, before, after):
 def _markdown(diagnosis, before):
     d = diagnosis.to_dict()
     data = diagnosis.data
-    main, second = diagnosis.main, diagnosis.second_effect
-    lines = [f'# Model discrepancy: {d["missing_effect"]}', '',
+    verdict = d['verdict']
+    lines = [f'# Model discrepancy: {verdict}', '',
              f'Data: `{data.source}`, {len(data)} samples at {1 / data.sample_period:g} Hz '
              f'({"voltage, current, position" if data.electrical else "force, position"}).', '']
-    if main:
-        lines += [f'**Missing effect: `{main.name}`** ({100 * main.score:.1f} % of the held-out one-step error '
-                  'of the nominal model explained). Added parameters:', ''] + _parameter_table(main)
-    else:
-        lines += ['**No missing effect**: no candidate explains a significant part of what the nominal model '
-                  'leaves unexplained.', '']
-    if second:
-        gaps = ', '.join(f'{s} {v:.4g}' for s, v in d['second_effect']['gap_after'].items())
-        lines += [f'**A second effect is significant once the first is in the model: `{second.name}`** '
-                  f'(NRMSE with both: {gaps}).', ''] + _parameter_table(second)
-    lines += ['## Gap between model and measurement', '', d['method'] + '.', '',
-              '| signal | NRMSE nominal | NRMSE with the effect |', '|---|---|---|']
+    lines += {'adequate': ['**The nominal model is adequate**: its held-out residuals are at the sensor-noise floor '
+                           'in every equation; nothing is left to explain.', ''],
+              'explained': ['**Explained**: the named effects, added to the model and re-identified with it, leave '
+                            'the residuals at the sensor-noise floor.', ''],
+              'unexplained': ['**Unexplained**: a disagreement remains that no candidate effect explains'
+                              + (' after the named ones' if d['effects'] else '') + '; where it lies is below, and a '
+                              'new candidate (`register_candidate`) must depend on the signal at the top of its list.',
+                              '']}[verdict]
+    if d['effects']:
+        lines += ['## Effects named, in turn', '',
+                  '| effect | parameters (final joint fit, one sigma) | share of the disagreement removed | '
+                  'gap after (NRMSE) |', '|---|---|---|---|']
+        for effect in d['effects']:
+            params = '; '.join(f'{k} = {v:.6g} +- {effect["std"][k]:.2g}' for k, v in effect['parameters'].items())
+            gaps = ', '.join(f'{s} {v:.4g}' for s, v in effect['gap_after'].items())
+            lines.append(f'| {effect["effect"]} | {params} | {100 * effect["share"]:.0f} % | {gaps} |')
+        lines.append('')
+    if diagnosis.partial is not None:
+        lines += [f'`{diagnosis.partial.name}` is significant but only a partial match: it removes '
+                  f'{100 * diagnosis.partial.share:.0f} % of the disagreement left (naming takes '
+                  f'{100 * MIN_SHARE:.0f} %).', '']
+    lines += ['## Where the model disagrees', '',
+              'Each equation\'s held-out one-step residual in physical units (volts of the voltage balance, newtons '
+              'of the force balance), in the band below the noise\'s (0-500 Hz at 10 kHz): its RMS beyond what the '
+              'sensor noise puts there, against that noise floor. Where it is not adequate, the signals a smooth '
+              'function of which explains most of it (beside the model\'s own terms).', '',
+              '| equation | model | beyond the noise (RMS) | noise floor (RMS) | power ratio | depends on |',
+              '|---|---|---|---|---|---|']
+    for label, key in (('nominal', 'disagreement_nominal'), ('final', 'disagreement')):
+        for equation, q in d[key].items():
+            unit = UNITS[q['quantity']]
+            depends = ', '.join(f'{x["signal"]} ({100 * x["explained"]:.0f} %)' for x in q.get('depends_on', [])[:3])
+            jointly = '; jointly: ' + ', '.join(f'{" and ".join(x["signals"])} ({100 * x["explained"]:.0f} %)'
+                                                for x in q.get('jointly', [])) if q.get('jointly') else ''
+            lines.append(f'| {equation} | {label} | {q["size"]:.3g} {unit} | {q["noise_floor"]:.3g} {unit} | '
+                         f'{q["ratio"]:.3g} | {depends or "(adequate)"}{jointly} |')
+    lines += ['', '![disagreement](disagreement.png)', '',
+              '## Gap between model and measurement', '', d['method'] + '.', '',
+              '| signal | NRMSE nominal | NRMSE final |', '|---|---|---|']
     lines += [f'| {s} | {d["gap_before"][s]:.4g} | {d["gap_after"][s]:.4g} |' for s in d['gap_before']]
     lines += ['', 'NRMSE = ||y - yhat|| / ||y - mean(y)||.', '', '![prediction](gap.png)', '',
               '## Candidate effects', '',
               f'Significant = better on at least {MIN_BLOCKS} of {FOLDS} held-out blocks (sign test), score '
               f'at least {MIN_SCORE:g} (fraction of the held-out one-step error removed, summed over the '
-              f'equations), a parameter at least {MIN_T:g} jackknife sigmas from zero, and parameters of the '
-              'sign physics gives them.', '',
+              f'equations), a parameter at least {MIN_T:g} jackknife sigmas from zero, and parameters of a sign '
+              f'physics allows. Named = significant and removing at least {100 * MIN_SHARE:.0f} % of the '
+              'disagreement left.', '',
               '| effect | score | significant | evidence |', '|---|---|---|---|']
     lines += [f'| {c["effect"]} | {c["score"]:.4f} | {"yes" if c["significant"] else "no"} | {c["evidence"]} |'
               for c in d['candidates']]
-    lines += ['', '## Where the nominal model disagrees', '',
-              'One-step residuals of each equation in physical units (electrical: volts of the voltage balance, '
-              'mechanical: newtons of the force balance), binned against time, velocity, position, the drive '
-              'and its rate; an effect shows as a systematic pattern (Coulomb friction: a step at zero '
-              'velocity; a spring: a slope in position; resistance drift: a trend in time).', '',
-              '![residuals](residuals.png)', '']
+    lines += ['', '## Residuals against the signals', '',
+              'One-step residuals binned against time, velocity, position, the drive and its rate; an effect shows '
+              'as a systematic pattern (Coulomb friction: a step at zero velocity; a spring: a slope in position; '
+              'resistance drift: a trend in time).', '', '![residuals](residuals.png)', '']
     for kind, loc in before.items():
         lines.append(f'- {kind}: {100 * loc.whiteness.outside:.0f} % of autocorrelation lags and '
                      f'{100 * loc.cross.outside:.0f} % of cross-correlation lags with {loc.input_name} outside '
                      f'the {100 * CONFIDENCE:.0f} % bounds (nominal model; peak cross-correlation at lag '
                      f'{loc.cross.peak_lag}).')
-    lines += ['', 'The sensor noise gives the residuals structure of their own at lags 1-2 (current noise enters '
-              'both sides of the electrical equation, the second difference of position noise the mechanical '
-              'one); what matters is the correlation beyond that and with the input.', '',
-              '![correlation](correlation.png)', '', '## Parameters', '',
-              'One sigma from the delete-one-block jackknife.', '',
-              '| parameter | nominal | re-identified with the effect |', '|---|---|---|']
+    lines += ['', '![correlation](correlation.png)', '', '## Parameters', '',
+              'One sigma: block jackknife, with a systematic part (the change under another prefilter) for the '
+              'final model.', '',
+              '| parameter | nominal | final (with the named effects) |', '|---|---|---|']
+    final_std = diagnosis.final_std[0]
     for name, value in diagnosis.nominal.parameters.items():
         if name != 'sample_period':
-            new = diagnosis.final.parameters[name]
             lines.append(f'| {name} | {_pm(value, diagnosis.nominal.std.get(name))} | '
-                         f'{_pm(new, diagnosis.final.std.get(name))} |')
+                         f'{_pm(diagnosis.final.parameters[name], final_std.get(name))} |')
     return '\n'.join(lines) + '\n'
 
 
-def _parameter_table(assessment):
-    lines = ['| parameter | value | one sigma (block jackknife) |', '|---|---|---|']
-    lines += [f'| {k} | {v:.6g} | {s:.2g} |' for k, (v, s) in assessment.parameters.items()]
-    settings = ', '.join(f'{k} = {v:.4g}' for k, v in assessment.settings.items())
-    return lines + ([''] + [f'Found by search: {settings}.'] if settings else []) + ['']
+def _disagreement_figure(plt, diagnosis):
+    """Each equation's residual (smoothed) against the signal it depends on most, for the final model (the
+    nominal one where the final one is adequate)."""
+    final = diagnosis.disagreement('final')
+    adequacy = diagnosis.final_adequacy
+    figure, axes = plt.subplots(1, len(adequacy), figsize=(6.0 * len(adequacy), 4.0), squeeze=False)
+    data = diagnosis.final.data
+    index = regression_rows(data)
+    width = max(1, int(round(SMOOTHING / data.sample_period)))
+    against = signals_of(data, index)
+    for ax, (equation, a) in zip(axes[0], adequacy.items()):
+        top = final[equation].get('depends_on')
+        name = top[0]['signal'] if top else 'time'
+        ax.plot(uniform_filter1d(against[name], width), uniform_filter1d(a.residual, width), ',', alpha=0.5,
+                color='tab:purple')
+        ax.axhline(0.0, color='0.6', lw=0.8)
+        ax.set_xlabel(f'{name} ({UNITS.get(name, "")})')
+        ax.set_ylabel(f'{a.quantity} residual, {SMOOTHING * 1e3:g} ms means ({UNITS[a.quantity]})')
+        state = 'at the noise floor' if a.adequate else f'{a.size:.3g} {UNITS[a.quantity]} beyond the noise'
+        ax.set_title(f'{equation} ({"final" if diagnosis.stages else "nominal"} model): {state}', fontsize=10)
+    figure.tight_layout()
+    return figure
 
 
 def _pm(value, sigma):

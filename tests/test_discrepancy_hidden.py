@@ -1,0 +1,100 @@
+"""The discrepancy workflow on records it did not make: tests/independent_plant.py simulates the actuator
+(RK4, closed PID loop, 5 mA current noise, 1 um position quantisation) with effects hidden in it, and the
+workflow is not told which. Library effects must be named (with the right sign), several at once in turn;
+effects the library lacks must leave the verdict `unexplained`, name nothing and be located on the signal
+they depend on; a clean record must be `adequate`.
+"""
+import numpy as np
+import pytest
+
+from emla_identification.discrepancy import CANDIDATES, Candidate, diagnose, register_candidate
+from independent_plant import record, random_parameters
+
+NOMINAL = ('resistance', 'inductance', 'emf_constant', 'mass', 'damping')
+
+
+def diagnosed(effects, seed):
+    recording, truth = record(3.0, params=random_parameters(seed=seed), effects=effects, seed=seed)
+    return diagnose(recording).to_dict(), truth
+
+
+@pytest.mark.parametrize('seed', [0, 1])
+def test_a_clean_record_is_adequate(seed):
+    result, _ = diagnosed((), seed)
+    assert result['verdict'] == 'adequate' and result['missing_effect'] == 'none' and result['effects'] == []
+    assert all(d['adequate'] and d['ratio'] < 1.5 for d in result['disagreement'].values())
+
+
+@pytest.mark.parametrize('effect, named, check', [
+    ('return_spring', 'return_spring', lambda p, t: p['spring_stiffness'] == pytest.approx(1500.0, rel=0.01)),
+    ('magnetic_stiffness', 'magnetic_stiffness',    # a force toward the pole: a negative stiffness, named so
+     lambda p, t: p['spring_stiffness'] == pytest.approx(-2000.0, rel=0.01)),
+    ('coulomb_friction', 'coulomb_friction', lambda p, t: p['coulomb_force'] == pytest.approx(1.0, rel=0.05)),
+    ('resistance_drift', 'resistance_drift', lambda p, t: p['resistance_rise'] > 0),
+    ('inductance_saturation', 'inductance_saturation', lambda p, t: p['saturation_current'] == pytest.approx(4.0, rel=0.15)),
+    ('force_constant_variation', 'force_constant_variation', lambda p, t: p['emf_constant_curvature'] < 0),
+    ('sensor_delay', 'sensor_delay', lambda p, t: p['position_delay'] == pytest.approx(2e-4)),
+    ('drive_voltage_error', 'drive_voltage_error', lambda p, t: p['dead_time_drop'] == pytest.approx(0.5, rel=0.1)),
+    # a current-sensor offset is indistinguishable from a constant voltage offset: named as the drive's, read back
+    ('current_sensor_offset', 'drive_voltage_error',
+     lambda p, t: p['equivalent_current_offset'] == pytest.approx(0.05, rel=0.05)),
+])
+def test_a_library_effect_is_named(effect, named, check):
+    result, truth = diagnosed((effect,), 0)
+    assert result['missing_effect'] == named, result['candidates']
+    assert result['effects'][0]['effect'] == named and result['verdict'] in ('explained', 'unexplained')
+    assert check(result['added_parameters'], truth), result['added_parameters']
+
+
+@pytest.mark.parametrize('seed', [0, 1])
+def test_two_effects_are_both_named_and_the_joint_model_is_right(seed):
+    result, truth = diagnosed(('return_spring', 'resistance_drift'), seed)
+    assert result['verdict'] == 'explained'
+    assert sorted(e['effect'] for e in result['effects']) == ['resistance_drift', 'return_spring']
+    assert result['added_parameters']['spring_stiffness'] == pytest.approx(1500.0, rel=0.05)
+    final, std = result['reidentified_parameters'], result['reidentified_parameters_std']
+    for name in NOMINAL:   # the nominal parameters re-identified jointly with both effects
+        assert final[name] == pytest.approx(truth[name], rel=0.05)
+        assert abs(final[name] - truth[name]) <= 3 * std[name], (name, final[name], truth[name], std[name])
+    gaps = [e['gap_after'] for e in result['effects']]
+    assert gaps[-1]['position'] < 0.5 * result['gap_before']['position']
+
+
+@pytest.mark.parametrize('effect, signal', [
+    ('quadratic_drag', 'velocity'),
+    ('cogging', 'position'),
+    ('time_varying_load', 'time'),
+    ('force_saturation', 'current'),
+])
+def test_an_effect_the_library_lacks_is_unexplained_and_located(effect, signal):
+    result, _ = diagnosed((effect,), 0)
+    assert result['verdict'] == 'unexplained' and result['missing_effect'] == 'unexplained'
+    assert result['effects'] == [] and result['added_parameters'] == {}
+    mechanical = result['disagreement']['mechanical']
+    assert not mechanical['adequate'] and mechanical['size'] > 5 * mechanical['noise_floor']
+    assert mechanical['depends_on'][0]['signal'] == signal, mechanical['depends_on']
+    assert result['disagreement']['electrical']['adequate']     # where it is not
+
+
+@pytest.fixture
+def cogging_candidate():
+    """The candidate a user writes after `emla discrepancy` located a disagreement on the position."""
+    @register_candidate
+    class Cogging(Candidate):
+        name = 'cogging'
+        parameters = ('cogging_sine', 'cogging_cosine')
+        units = ('N', 'N')
+        acts_on = ('mechanical', 'force')
+        signs = (0, 0)
+
+        def force(self, s):
+            phase = 2 * np.pi * s.position / 1.3e-3
+            return np.stack((np.sin(phase), np.cos(phase)))
+    yield Cogging
+    del CANDIDATES[Cogging.name]
+
+
+def test_a_registered_candidate_explains_what_was_unexplained(cogging_candidate):
+    result, _ = diagnosed(('cogging',), 0)
+    assert result['verdict'] == 'explained' and result['missing_effect'] == 'cogging'
+    assert result['added_parameters']['cogging_sine'] == pytest.approx(1.5, rel=0.05)
