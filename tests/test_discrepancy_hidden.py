@@ -4,11 +4,20 @@ workflow is not told which. Library effects must be named (with the right sign),
 effects the library lacks must leave the verdict `unexplained`, name nothing and be located on the signal
 they depend on; a clean record must be `adequate`.
 """
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
+from emla_core.bag import write_recording
+from emla_core.data import load
 from emla_identification.discrepancy import CANDIDATES, Candidate, diagnose, register_candidate
 from independent_plant import record, random_parameters
+from ros_isolation import REPO
 
 NOMINAL = ('resistance', 'inductance', 'emf_constant', 'mass', 'damping')
 
@@ -98,3 +107,35 @@ def test_a_registered_candidate_explains_what_was_unexplained(cogging_candidate)
     result, _ = diagnosed(('cogging',), 0)
     assert result['verdict'] == 'explained' and result['missing_effect'] == 'cogging'
     assert result['added_parameters']['cogging_sine'] == pytest.approx(1.5, rel=0.05)
+
+
+UNEXPLAINED = Path(__file__).resolve().parent.parent / 'bags' / 'example_unexplained'
+
+
+def unexplained_recording():
+    """The bundled bag's record: 1 s of an actuator with a cogging force the library has no candidate for."""
+    return record(1.0, params=random_parameters(seed=3), effects=('cogging',), seed=3)[0]
+
+
+def test_the_bundled_unexplained_bag_is_what_the_generator_writes():
+    bundled, fresh = load(UNEXPLAINED), unexplained_recording()
+    for name, values in fresh.signals.items():
+        np.testing.assert_array_equal(bundled.signals[name], values)
+
+
+def test_the_readme_walkthrough_of_an_unexplained_disagreement_runs():
+    """The README's Python block: `unexplained`, located on the position; a user's candidate then named."""
+    readme = (REPO / 'README.md').read_text()
+    section = readme[readme.index('### Find what the model is missing'):readme.index('### The ROS 2 graph')]
+    code = re.search(r'```python\n(.*?)```', section, re.S).group(1)
+    out = subprocess.run([sys.executable, '-c', code], cwd=REPO, capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ['unexplained', 'position', 'explained', 'cogging']
+
+
+if __name__ == '__main__':   # regenerate the bundled bag
+    shutil.rmtree(UNEXPLAINED, ignore_errors=True)
+    write_recording(unexplained_recording(), UNEXPLAINED, custom_data={
+        'hidden_effect': 'cogging (1.5 N, pitch 1.3 mm; not in the library)',
+        'generator': 'tests/test_discrepancy_hidden.py'})
+    print(f'wrote {UNEXPLAINED}')
