@@ -20,6 +20,7 @@ from emla_core.errors import InputError  # noqa: E402
 COMMANDS = {
     'identify': 'identify',
     'discrepancy': 'discrepancy',
+    'compare': 'compare',
     'import': 'import_csv',
     'launch': 'launch',
     'simulate': 'simulate',

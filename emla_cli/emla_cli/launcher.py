@@ -12,6 +12,7 @@ import contextlib
 import ctypes
 import dataclasses
 import fcntl
+import math
 import os
 import re
 import signal
@@ -122,6 +123,10 @@ class Graph:
     def __getitem__(self, name):
         return next(n for n in self.nodes if n.name == name)
 
+    def cpu_times(self):
+        """{process: CPU time so far, s} of the nodes and of this launcher (all threads of each)."""
+        return {**{node.name: cpu_seconds(node.pid) for node in self.nodes}, 'launcher': time.process_time()}
+
     def stop(self, names=None, timeouts=(5.0, 3.0, 3.0)):
         """End the named nodes (all by default): SIGINT, SIGTERM, SIGKILL, each after the previous timed out."""
         nodes = [n for n in self.nodes if names is None or n.name in names]
@@ -153,6 +158,15 @@ class Graph:
         self._watcher.join()
         remove_unused_shm(self.shared_memory)
         return False
+
+
+def cpu_seconds(pid):
+    """User + system CPU time of process `pid` so far, s (NaN once it is gone)."""
+    try:
+        fields = Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
+    except OSError:
+        return math.nan
+    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
 
 
 def shm_files(pid):
@@ -196,9 +210,10 @@ class LaunchError(Exception):
 
 
 class Monitor:
-    """The launcher's view of the graph: simulated time, the done signal and the latest estimate."""
+    """The launcher's view of the graph: simulated time, the done signal and the latest estimate, and the CPU
+    time the processes spent in between (`cpu_times`: a Graph's)."""
 
-    def __init__(self, node):
+    def __init__(self, node, cpu_times):
         from builtin_interfaces.msg import Time
         from rosgraph_msgs.msg import Clock
 
@@ -209,16 +224,19 @@ class Monitor:
         self.done = None                           # simulated ns of the plant's end
         self.done_wall = None
         self.estimate = None                       # the latest ParameterEstimate
+        self._cpu_times = cpu_times
+        self.cpu_at_start = self.cpu_at_done = None  # {process: CPU s} at the first tick and at the done signal
         node.create_subscription(Clock, topics.CLOCK_TOPIC, self._on_clock, common.CLOCK_QOS)
         node.create_subscription(Time, topics.DONE_TOPIC, self._on_done, common.LATCHED_QOS)
         node.create_subscription(ParameterEstimate, topics.PARAMETERS_TOPIC, self._on_estimate, common.LATCHED_QOS)
 
     def _on_clock(self, msg):
         self.last_tick = (time.monotonic(), stamp_to_ns(msg.clock))
-        self.first_tick = self.first_tick or self.last_tick
+        if self.first_tick is None:
+            self.first_tick, self.cpu_at_start = self.last_tick, self._cpu_times()
 
     def _on_done(self, msg):
-        self.done, self.done_wall = stamp_to_ns(msg), time.monotonic()
+        self.done, self.done_wall, self.cpu_at_done = stamp_to_ns(msg), time.monotonic(), self._cpu_times()
 
     def _on_estimate(self, msg):
         self.estimate = msg
@@ -241,6 +259,15 @@ class Monitor:
             return None
         wall, sim = self.first_tick
         return round((self.done - sim) * 1e-9 / (self.done_wall - wall), 4)
+
+    def cpu_per_simulated_second(self):
+        """{process: CPU s per simulated s} over the same span, and their 'total' ({} without ticks)."""
+        if self.first_tick is None or self.cpu_at_done is None or self.done <= self.first_tick[1]:
+            return {}
+        simulated = (self.done - self.first_tick[1]) * 1e-9
+        cpu = {name: round((self.cpu_at_done[name] - self.cpu_at_start[name]) / simulated, 3)
+               for name in self.cpu_at_start}
+        return {**cpu, 'total': round(sum(cpu.values()), 3)}
 
 
 def write_params(directory, node, parameters):
@@ -267,7 +294,7 @@ def launch(scenario, duration, bag, node_parameters):
             Graph(domain_env(domain)) as graph, ros_node('emla_launch', domain) as (node, executor), \
             tqdm(total=round(duration, 6), desc=f'{scenario} (domain {domain})', file=sys.stderr,
                  bar_format='{desc}: {n:.3f}/{total} s simulated [{elapsed}]') as bar:
-        monitor = Monitor(node)
+        monitor = Monitor(node, graph.cpu_times)
         for name in ('recorder', *NODES):
             graph.start(name, [str(BIN / 'emla'), 'run', name, '--params-file',
                                str(write_params(tmp, name, parameters.get(name, {})))])
@@ -276,13 +303,13 @@ def launch(scenario, duration, bag, node_parameters):
         graph.stop(['recorder'])
         if graph['recorder'].popen.returncode != 0:
             raise LaunchError(f'the recorder failed: {graph["recorder"].describe_exit()}')
-        final, rtf = monitor.final(), monitor.realtime_factor()
+        final, rtf, cpu = monitor.final(), monitor.realtime_factor(), monitor.cpu_per_simulated_second()
         nodes = [{'name': n.name, 'pid': n.pid} for n in graph.nodes]
     contents = read_bag(bag)
     if not contents.estimates or contents.estimates[-1][0] != stamp_to_ns(final.header.stamp) * 1e-9:
         raise LaunchError(f'{bag}: the recorder missed the final estimate')
     return {'scenario': scenario, 'duration': duration, 'wall_time': round(time.monotonic() - started, 3),
-            'realtime_factor': rtf, 'final_parameters': contents.estimates[-1][1],
+            'realtime_factor': rtf, 'cpu_per_simulated_second': cpu, 'final_parameters': contents.estimates[-1][1],
             'true_parameters': contents.truth[-1][1] if contents.truth else {}, 'bag': str(bag), 'nodes': nodes}
 
 
@@ -316,10 +343,11 @@ def scenario_parameters(scenario):
     changed, adaptive = scenario.cases[scenario.graph_case]
     actuator = {name: getattr(scenario.params, name) for name in common.ACTUATOR_FIELDS}
     plant = {**actuator, 'sample_period': scenario.sample_period}
-    if changed and scenario.effects:
-        plant['effects'] = [effect.name for effect in scenario.effects]
+    effects = scenario.model_effects + (scenario.effects if changed else ())
+    if effects:
+        plant['effects'] = [effect.name for effect in effects]
         plant['effect_parameters'] = [f'{effect.name}.{f.name}={getattr(effect, f.name)!r}'
-                                      for effect in scenario.effects for f in dataclasses.fields(effect)]
+                                      for effect in effects for f in dataclasses.fields(effect)]
     if changed and scenario.changes:
         if any(change.factor is None for change in scenario.changes):
             raise InputError(f'scenario {scenario.name}: the plant node takes parameter changes as factors only')

@@ -55,9 +55,22 @@ class Scenario:
     frame_samples: int = FRAME_SAMPLES  # samples between identifier updates / parameter updates
     seed: int = 0
     cases: dict = dataclasses.field(default_factory=lambda: dict(CASES))
+    model_effects: tuple = ()  # Effect of the actuator itself (from a model file), in every case
 
     def plant(self, changed=True):
-        return Plant(self.params, effects=self.effects if changed else (), changes=self.changes if changed else ())
+        return Plant(self.params, effects=self.model_effects + (self.effects if changed else ()),
+                     changes=self.changes if changed else ())
+
+    def with_model(self, model, source='model file'):
+        """This scenario on the actuator of a model file (emla_core.model_file): its nominal parameters (the
+        controller starts from them too) and its effects, simulated by the plant in every case."""
+        from emla_sim.model_effects import plant_effects
+        values = model.values()
+        try:
+            params = self.params.replace(**values)
+        except ValueError as exc:
+            raise InputError(f'{source}: {exc}') from None
+        return dataclasses.replace(self, params=params, model_effects=plant_effects(model, source))
 
     def sensor(self):
         return Sensor(SensorConfig(sample_period=self.sample_period, seed=self.seed))

@@ -187,10 +187,10 @@ class CoulombFriction(Effect):
 @register_effect
 @dataclasses.dataclass(frozen=True)
 class ReturnSpring(Effect):
-    """Spring force k (x - x0) (N/m, m), as in valve actuators; 2000 N/m gives 10 N at 5 mm."""
+    """Spring force k (x - x0) (N/m, m), as in valve actuators; 2000 N/m gives 10 N at 5 mm. A negative k is
+    a magnetic (reluctance) stiffness: a force growing toward the pole, as in solenoids."""
 
     name: ClassVar[str] = 'return_spring'
-    _non_negative: ClassVar[tuple] = ('stiffness',)
     stiffness: float = 2000.0
     rest_position: float = 0.0
 

@@ -12,13 +12,14 @@ The JSON goes to stdout unless --json is given.
 """
 import os
 import shutil
+import sys
 import tempfile
 from pathlib import Path
 
 from emla_core.errors import InputError
 
 from .inputs import DATA_HELP, add_data_arguments, load_data, understood
-from .output import emit_json, json_text
+from .output import emit_json, json_text, write_file
 
 HELP = 'Find what the model is missing: name the effect, add it, show the gap shrink.'
 
@@ -47,6 +48,8 @@ def add_arguments(parser):
                         help='write report.md with PNG figures (and diagnosis.json) into DIR')
     parser.add_argument('--candidates', metavar='NAMES',
                         help='comma-separated candidate effects to consider (default: all registered)')
+    parser.add_argument('--model-out', metavar='M.yaml',
+                        help='write the final model (nominal parameters and the effects named) as a model file')
     add_data_arguments(parser)
 
 
@@ -68,6 +71,12 @@ def run(args):
             _write_report(diagnosis, Path(args.report), json_text(result))
         except OSError as exc:
             raise InputError(f'{exc.filename or "output"}: cannot write: {exc.strerror or exc}') from None
+    if args.model_out:
+        from emla_core.model_file import write
+        from emla_identification.model import from_fit
+        names = [stage.assessment.name for stage in diagnosis.stages]
+        write_file(args.model_out, lambda temporary: write(
+            from_fit(diagnosis.final, names, args.data, 'emla ' + ' '.join(sys.argv[1:])), temporary))
     emit_json(result, args.json)
     return 0
 

@@ -48,14 +48,14 @@ equals batch least squares.
 
 Long records (a million samples and more) are read and identified in parts with bounded memory; the
 result is the same. The JSON goes to stdout unless --json is given; --plot draws the estimates converging
-(and the true values, when a simulated bag carries them). Implausible estimates (a negative resistance, a
+(and the true values, when a simulated bag carries them). With --model-file the structure of a model file (from `emla discrepancy --model-out`: the nominal model with
+the effects found) is identified on DATA, effects' parameters included; --model-out writes what was
+identified as a model file for the other commands. Implausible estimates (a negative resistance, a
 mass of micrograms) are warned about on stderr with the likely cause and the flag that fixes it, and listed
 under "warnings" in the JSON; the exit status stays 0.
 
 """ + DATA_HELP
 MODELS = ('electrical', 'mechanical', 'full', 'arx')
-DEFAULT_ORDERS = (2, 2, 1)
-ARX_DEFAULT = ('voltage', 'current')
 PROGRESS_MIN_SAMPLES = 200_000  # smaller inputs finish too fast for a progress bar
 LONG_SAMPLES = 1 << 20          # from here on a record is identified part by part (bounded memory)
 
@@ -76,22 +76,37 @@ def add_arguments(parser):
     parser.add_argument('--output', metavar='COL', help='ARX output column (default current)')
     parser.add_argument('--json', metavar='FILE', help='write the result here instead of stdout')
     parser.add_argument('--plot', metavar='FILE.png', help='PNG of the estimates converging over time')
+    parser.add_argument('--model-file', metavar='M.yaml',
+                        help='identify the structure of this model file (its effects too) on DATA')
+    parser.add_argument('--model-out', metavar='M.yaml', help='write the identified model to this model file')
     add_data_arguments(parser)
 
 
 def run(args):
     model, orders, forgetting = _options(args)
+    structure = None
+    if args.model_file:
+        from emla_core.model_file import read
+        structure = read(args.model_file)
     if model == 'arx':
         recording = load_data(args)
         result, plot = _arx(recording, orders, _memory(args, forgetting, recording), args)
+        identified = None
+    elif structure is not None and structure.effects:
+        recording = load_data(args)
+        result, plot, identified = _with_effects(structure, recording, args)
     else:
         recording, parts = _record(args)
-        result, plot = _greybox(recording, parts, model, _memory(args, forgetting, recording), args.plot)
+        result, plot, identified = _greybox(recording, parts, model, _memory(args, forgetting, recording), args)
+    if model != 'arx':
         result['warnings'] = warn(plausibility_warnings(result['parameters'], result['std'], recording), 'identify')
     result.update(understood(recording, 'identify'))
     text = json_text(result)
     staged = []  # (temporary, final): renamed only once every output is complete
     try:
+        if args.model_out:
+            from emla_core.model_file import write
+            staged.append((stage(args.model_out, lambda temporary: write(identified, temporary)), args.model_out))
         if args.plot:
             from emla_cli.identify_plot import save_convergence_plot
             staged.append((stage(args.plot, lambda temporary: save_convergence_plot(temporary, *plot)), args.plot))
@@ -115,10 +130,15 @@ def _options(args):
         for flag, value in (('--orders', args.orders), ('--input', args.input), ('--output', args.output)):
             if value is not None:
                 raise InputError(f'{flag} applies to --model arx only')
+    else:
+        for flag, value in (('--model-file', args.model_file), ('--model-out', args.model_out)):
+            if value is not None:
+                raise InputError(f'{flag} applies to the grey-box models, not to --model arx')
     if (args.input is None) != (args.output is None):
         raise InputError('--input and --output go together')
     orders = None
     if model == 'arx':
+        from emla_identification.arx import DEFAULT_ORDERS
         try:
             orders = tuple(int(v) for v in args.orders) if args.orders else DEFAULT_ORDERS
         except ValueError:
@@ -145,7 +165,30 @@ def _memory(args, forgetting, recording):
         raise InputError(f'--memory-time {args.memory_time:g}: {exc}') from None
 
 
-def _greybox(recording, parts, model, forgetting, plot):
+def _command_line():
+    return 'emla ' + ' '.join(sys.argv[1:])
+
+
+def _with_effects(structure, recording, args):
+    """(JSON, plot, Model) of a model file's structure with effects identified on `recording`."""
+    from emla_identification.discrepancy.fit import with_systematic
+    from emla_identification.model import from_fit, identify_model
+    if args.memory_time is not None or float(args.forgetting) != 1.0 or args.plot:
+        raise InputError('--forgetting, --memory-time and --plot apply to models without effects')
+    final = identify_model(structure, recording, args.model_file)
+    std, added_std = with_systematic(final)
+    names = [e.effect for e in structure.effects]
+    identified = from_fit(final, names, args.data, _command_line())
+    result = {'model': 'full', 'samples': len(recording), 'sample_period': recording.sample_period,
+              'parameters': {k: v for k, v in final.parameters.items() if k != 'sample_period'},
+              'std': {k: std[k] for k in final.parameters if k != 'sample_period'},
+              'effects': [{'effect': name, 'parameters': {p: v for p, (v, _) in effect.parameters.items()},
+                           'std': {p: s for p, (_, s) in effect.parameters.items()}}
+                          for name, effect in zip(names, identified.effects)]}
+    return result, None, identified
+
+
+def _greybox(recording, parts, model, forgetting, args):
     from tqdm import tqdm
 
     from emla_identification.greybox import identify
@@ -158,7 +201,7 @@ def _greybox(recording, parts, model, forgetting, plot):
     else:
         with tqdm(unit=' samples', unit_scale=True, desc='identify', file=sys.stderr, leave=False,
                   disable=not sys.stderr.isatty()) as bar:
-            result = identify_chunks(parts, model, forgetting, points=200 if plot else 1,
+            result = identify_chunks(parts, model, forgetting, points=200 if args.plot else 1,
                                      progress=lambda samples: bar.update(samples - bar.n))
     truth = {}
     for name in result.parameters:
@@ -168,7 +211,11 @@ def _greybox(recording, parts, model, forgetting, plot):
             pass
     trajectory = result.trajectory
     title = f'{Path(recording.source).name}: {result.model} model'
-    return result.to_dict(), (trajectory.time, trajectory.parameters, trajectory.std, truth, title)
+    identified = None
+    if args.model_out:
+        from emla_identification.model import from_greybox
+        identified = from_greybox(result, args.data, _command_line())
+    return result.to_dict(), (trajectory.time, trajectory.parameters, trajectory.std, truth, title), identified
 
 
 def _record(args):
@@ -202,12 +249,12 @@ def _handed_over(parts):
 
 def _arx(recording, orders, forgetting, args):
     from emla_identification import offline
-    from emla_identification.arx import arx_regressors, identify_arx
+    from emla_identification.arx import DEFAULT_SIGNALS, arx_regressors, identify_arx
     source = recording.source
-    if args.input is None and not recording.has(*ARX_DEFAULT):
+    if args.input is None and not recording.has(*DEFAULT_SIGNALS):
         raise InputError(f'{source}: no voltage and current columns for the default ARX input and output; '
                          f'choose them with --input COL --output COL (columns: {", ".join(recording.signals)})')
-    columns = (args.input, args.output) if args.input is not None else ARX_DEFAULT
+    columns = (args.input, args.output) if args.input is not None else DEFAULT_SIGNALS
     recording.require(*columns)
     u, y = (recording.signals[c] for c in columns)
     if len(y) - max(orders[0], orders[2] + orders[1] - 1) <= orders[0] + orders[1]:

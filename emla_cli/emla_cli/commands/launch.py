@@ -34,6 +34,8 @@ node pids) to --json or stdout. Scenarios (the graph runs the adaptive case):
 def add_arguments(parser):
     parser.add_argument('scenario', nargs='?', default='default', help='scenario name (default: default; see above)')
     parser.add_argument('--duration', type=float, metavar='S', help="simulated time, s (default: the scenario's, above)")
+    parser.add_argument('--model-file', metavar='M.yaml',
+                        help='run the actuator of this model file (its parameters and effects) instead')
     parser.add_argument('--bag', metavar='DIR', help='bag directory to record (default: bags/<scenario>-<time>)')
     parser.add_argument('--json', metavar='FILE', help='write the summary here (default: stdout)')
 
@@ -56,6 +58,9 @@ def run(args):
     from emla_control import scenarios
 
     scenario = scenarios.get(args.scenario)
+    if args.model_file:
+        from emla_core.model_file import read
+        scenario = scenario.with_model(read(args.model_file), args.model_file)
     duration = scenario.duration if args.duration is None else args.duration
     if not 0 < duration < 1e6:
         raise InputError(f'--duration must be positive, got {duration}')

@@ -1,0 +1,113 @@
+"""`emla compare`: a model file (or two) driven by a record's measured inputs against its measured outputs,
+as MATLAB's compare does; the subsystem predictions of the discrepancy workflow (discrepancy/predict.py)."""
+import sys
+from pathlib import Path
+
+from emla_core.errors import InputError
+
+from .inputs import DATA_HELP, add_data_arguments, load_data, understood
+from .output import emit_json, write_file
+
+HELP = 'Compare a model file (or two) with measured data: each subsystem predicted from its measured inputs.'
+SIGNAL_UNITS = {'current': 'A', 'position': 'm'}
+
+
+def description():
+    return """\
+Drive the model of a model file with a record's measured inputs and compare its outputs with the measured
+ones, as MATLAB's compare does. A closed loop has an integrator in it, so each subsystem is run from its
+own measured inputs and every sample is predicted from the measured state a horizon before it:
+  current   from the measured voltage and the back-EMF of the measured position, 5 L/R ahead (the initial
+            current is forgotten by then: a free run in effect)
+  position  from the measured current (the force Km I and the model's effects) or force, 10 ms ahead
+Fit (%) = 100 (1 - |y - yhat| / |y - mean y|) and NRMSE = |y - yhat| / |y - mean y| per signal. With two
+--model-file the two models are compared side by side on the same data (the nominal and the augmented
+model: the gap shrinking). The JSON goes to stdout unless --json is given; --plot draws measured against
+predicted over the stretch where they differ most.
+
+""" + DATA_HELP
+
+
+def add_arguments(parser):
+    parser.add_argument('data', metavar='DATA', help='CSV or MAT file, rosbag2 directory or .mcap file')
+    parser.add_argument('--model-file', metavar='M.yaml', action='append', required=True,
+                        help='a model file (give it twice to compare two models)')
+    parser.add_argument('--json', metavar='FILE', help='write the result here instead of stdout')
+    parser.add_argument('--plot', metavar='FILE.png', help='PNG of measured and predicted signals')
+    add_data_arguments(parser)
+
+
+def run(args):
+    from emla_core.model_file import read
+    from emla_identification.discrepancy.predict import predict
+    from emla_identification.model import model_fit
+
+    if len(args.model_file) > 2:
+        raise InputError('--model-file: give one model, or two to compare them')
+    for path in (args.json, args.plot):
+        if path and not Path(path).resolve().parent.is_dir():
+            raise InputError(f'{path}: its directory does not exist')
+    recording = load_data(args)
+    predictions = {}
+    for path in args.model_file:
+        predictions[path] = predict(model_fit(read(path), recording, path))
+    result = {'models': list(predictions),
+              'fit_percent': {m: {s: round(100.0 * (1.0 - p.nrmse), 4) for s, p in pred.items()}
+                              for m, pred in predictions.items()},
+              'nrmse': {m: {s: round(p.nrmse, 6) for s, p in pred.items()} for m, pred in predictions.items()},
+              'horizon': {s: {'samples': p.horizon, 'seconds': p.horizon * recording.sample_period}
+                          for s, p in next(iter(predictions.values())).items()},
+              **understood(recording, 'compare')}
+    if len(predictions) == 1:   # one model: its figures directly, as the contract's single-model form
+        (only,) = predictions
+        result['fit_percent'], result['nrmse'] = result['fit_percent'][only], result['nrmse'][only]
+    if args.plot:
+        write_file(args.plot, lambda temporary: plot(predictions, recording, temporary))
+    emit_json(result, args.json)
+    for model, pred in predictions.items():
+        fits = ', '.join(f'{s} {100.0 * (1.0 - p.nrmse):.2f} %' for s, p in pred.items())
+        print(f'emla compare: {Path(model).name}: fit {fits}', file=sys.stderr)
+    return 0
+
+
+def plot(predictions, recording, path, window=0.08):
+    """PNG: per signal, measured and each model's prediction over the `window` s where the first model errs
+    most, and the prediction errors below."""
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    first = next(iter(predictions.values()))
+    signals = list(first)
+    figure, axes = plt.subplots(2, len(signals), figsize=(6.5 * len(signals), 6.5), squeeze=False, sharex='col')
+    ts = recording.sample_period
+    colours = ('tab:red', 'tab:blue')
+    for j, signal in enumerate(signals):
+        reference = first[signal]
+        span = int(window / ts)
+        error = np.abs(reference.measured - reference.predicted)
+        centre = int(np.argmax(np.convolve(error, np.ones(span), mode='same')))
+        lo, hi = max(0, centre - span // 2), centre + span // 2
+        unit = SIGNAL_UNITS.get(signal, '')
+        top, bottom = axes[0, j], axes[1, j]
+        shown = (reference.index >= reference.index[lo]) & (reference.index < reference.index[min(hi, len(error) - 1)])
+        t = recording.start_time + reference.index[shown] * ts
+        top.plot(t, reference.measured[shown], 'k', lw=1.2, label='measured')
+        for (model, pred), colour in zip(predictions.items(), colours):
+            p = pred[signal]
+            mask = np.isin(p.index, reference.index[shown])
+            label = f'{Path(model).stem} (fit {100 * (1 - p.nrmse):.1f} %)'
+            top.plot(recording.start_time + p.index[mask] * ts, p.predicted[mask], color=colour, lw=1, label=label)
+            bottom.plot(recording.start_time + p.index[mask] * ts, (p.measured - p.predicted)[mask], color=colour,
+                        lw=1, label=Path(model).stem)
+        top.set_title(f'{signal}: {reference.horizon}-step-ahead prediction ({reference.horizon * ts * 1e3:g} ms)')
+        top.set_ylabel(f'{signal} ({unit})')
+        top.legend(fontsize=8)
+        bottom.axhline(0.0, color='0.6', lw=0.8)
+        bottom.set_ylabel(f'measured - predicted ({unit})')
+        bottom.set_xlabel('time (s)')
+        bottom.legend(fontsize=8)
+    figure.tight_layout()
+    figure.savefig(path, dpi=90, format='png')
+    plt.close(figure)

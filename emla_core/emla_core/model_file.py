@@ -1,0 +1,163 @@
+"""The model file: one description of an actuator's model, written by `emla identify` and `emla discrepancy`
+(--model-out) and read by every command that identifies, simulates, compares or controls with it
+(--model-file).
+
+YAML, SI units:
+
+    emla_model: 1
+    sample_period: 0.0001                   # s, of the data it was identified from
+    parameters:                             # the nominal model: value and one-sigma uncertainty
+      resistance: {value: 4.0002, std: 0.0003}
+      inductance: {value: 0.0016, std: 5.7e-07}
+      ...
+    effects:                                # effects added to the nominal model, in the order they were found
+      - effect: coulomb_friction            # what it is (magnetic_stiffness for a negative stiffness)
+        candidate: coulomb_friction         # the discrepancy workflow's candidate that models it
+        parameters: {coulomb_force: {value: 1.006, std: 0.0012}}
+        settings: {presliding_displacement: 2.7e-06, rigid_sticking: true}
+    provenance: {data: bags/run, date: '2026-11-23T02:00:00Z', command: emla discrepancy ..., version: 0.1.0}
+"""
+import dataclasses
+import datetime
+import math
+import os
+from pathlib import Path
+
+import yaml
+
+from emla_core.errors import InputError
+from emla_core.parameters import PARAMETER_NAMES
+
+FORMAT = 1
+
+
+@dataclasses.dataclass
+class ModelEffect:
+    effect: str          # its name in the results (e.g. magnetic_stiffness)
+    candidate: str       # the candidate of the discrepancy library that models it (e.g. return_spring)
+    parameters: dict     # {name: (value, std)}
+    settings: dict = dataclasses.field(default_factory=dict)
+
+    def values(self):
+        return {k: v for k, (v, _) in self.parameters.items()}
+
+
+@dataclasses.dataclass
+class Model:
+    """An actuator model: nominal parameters {name: (value, std)}, effects, and where it came from."""
+    sample_period: float
+    parameters: dict
+    effects: list = dataclasses.field(default_factory=list)
+    provenance: dict = dataclasses.field(default_factory=dict)
+
+    def values(self):
+        """{name: value} of the nominal parameters."""
+        return {k: v for k, (v, _) in self.parameters.items()}
+
+    def to_yaml(self):
+        def pair(value, std):
+            return {'value': float(value), 'std': None if std is None or not math.isfinite(std) else float(std)}
+        return yaml.safe_dump({
+            'emla_model': FORMAT, 'sample_period': float(self.sample_period),
+            'parameters': {k: pair(*self.parameters[k]) for k in PARAMETER_NAMES if k in self.parameters},
+            'effects': [{'effect': e.effect, 'candidate': e.candidate,
+                         'parameters': {k: pair(*v) for k, v in e.parameters.items()},
+                         'settings': {k: _plain(v) for k, v in e.settings.items()}} for e in self.effects],
+            'provenance': {k: str(v) for k, v in self.provenance.items()},
+        }, sort_keys=False)
+
+
+def _plain(value):
+    if isinstance(value, bool):
+        return value
+    if isinstance(value, (int, float)):
+        return float(value) if math.isfinite(value) else None
+    return str(value)
+
+
+def provenance(data, command):
+    """Where a model came from: the data, the time, the command line, the suite's version."""
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        suite = version('emla_core')
+    except PackageNotFoundError:
+        suite = 'unknown'
+    return {'data': str(data), 'date': datetime.datetime.now(datetime.timezone.utc).isoformat(timespec='seconds'),
+            'command': command, 'version': suite}
+
+
+def write(model, path):
+    """Write `model` to `path` (complete or not at all)."""
+    path = Path(path)
+    temporary = path.with_name(f'.{path.name}.{os.getpid()}')
+    try:
+        temporary.write_text(model.to_yaml())
+        os.replace(temporary, path)
+    except OSError as exc:
+        temporary.unlink(missing_ok=True)
+        raise InputError(f'{path}: cannot write: {exc.strerror or exc}') from None
+
+
+def read(path):
+    """The Model in a model file, or InputError naming the file and what is wrong with it."""
+    path = Path(path)
+    try:
+        document = yaml.safe_load(path.read_text())
+    except FileNotFoundError:
+        raise InputError(f'{path}: no such model file') from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f'{path}: cannot read: {exc}') from None
+    except yaml.YAMLError as exc:
+        raise InputError(f'{path}: not YAML: {" ".join(str(exc).split())}') from None
+    if not isinstance(document, dict) or document.get('emla_model') != FORMAT:
+        raise InputError(f'{path}: not an emla model file (it must start with `emla_model: {FORMAT}`)')
+    unknown = sorted(set(document) - {'emla_model', 'sample_period', 'parameters', 'effects', 'provenance'})
+    if unknown:
+        raise InputError(f'{path}: unknown key(s) {", ".join(unknown)}')
+    period = _number(document.get('sample_period'), path, 'sample_period')
+    if not period > 0:
+        raise InputError(f'{path}: sample_period must be positive, got {period}')
+    parameters = _pairs(document.get('parameters'), path, 'parameters')
+    unknown = sorted(set(parameters) - set(PARAMETER_NAMES))
+    if unknown:
+        raise InputError(f'{path}: unknown parameter(s) {", ".join(unknown)}; known: {", ".join(PARAMETER_NAMES)}')
+    effects = []
+    for j, item in enumerate(document.get('effects') or []):
+        where = f'effects[{j}]'
+        if not isinstance(item, dict) or not isinstance(item.get('effect'), str):
+            raise InputError(f'{path}: {where} needs an `effect` name')
+        settings = item.get('settings') or {}
+        if not isinstance(settings, dict):
+            raise InputError(f'{path}: {where}.settings must be a mapping')
+        effects.append(ModelEffect(item['effect'], str(item.get('candidate', item['effect'])),
+                                   _pairs(item.get('parameters'), path, f'{where}.parameters'), settings))
+    provenance = document.get('provenance') or {}
+    return Model(period, parameters, effects, provenance if isinstance(provenance, dict) else {})
+
+
+def _number(value, path, where):
+    if isinstance(value, str):     # YAML 1.1 reads 1e-4 (no dot) as a string
+        try:
+            value = float(value)
+        except ValueError:
+            pass
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise InputError(f'{path}: {where} must be a finite number, got {value!r}')
+    return float(value)
+
+
+def _pairs(section, path, where):
+    """{name: (value, std or None)} of a mapping of {name: {value, std}} (or name: value)."""
+    if section is None:
+        return {}
+    if not isinstance(section, dict):
+        raise InputError(f'{path}: {where} must be a mapping of name: {{value, std}}')
+    out = {}
+    for name, entry in section.items():
+        if isinstance(entry, dict):
+            std = entry.get('std')
+            out[str(name)] = (_number(entry.get('value'), path, f'{where}.{name}.value'),
+                              None if std is None else _number(std, path, f'{where}.{name}.std'))
+        else:
+            out[str(name)] = (_number(entry, path, f'{where}.{name}'), None)
+    return out

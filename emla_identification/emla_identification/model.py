@@ -1,0 +1,120 @@
+"""Model files (emla_core.model_file) and the identification: a model from a grey-box result or from a
+discrepancy diagnosis, the same model structure identified on new data, and the model as given, ready to
+predict a record (emla compare).
+
+The effects of a model are the discrepancy workflow's candidates (discrepancy/candidates.py), so a model
+with effects is identified, and predicted, by its joint fit (discrepancy/fit.py); without effects the
+grey-box identification (greybox.py) is the one used.
+"""
+import numpy as np
+
+from emla_core.errors import InputError
+from emla_core.model_file import Model, ModelEffect, provenance
+
+from .discrepancy.candidates import CANDIDATES
+from .discrepancy.data import Data
+from .discrepancy.fit import NOMINAL, Fit, fit, physical, with_systematic
+from .regressors import emf_lag
+
+
+def from_greybox(result, data, command):
+    """The Model of an `identify` result (GreyBoxResult): the nominal parameters it identified."""
+    return Model(result.sample_period, {k: (v, result.std.get(k)) for k, v in result.parameters.items()}, [],
+                 provenance(data, command))
+
+
+def from_fit(final, names, data, command):
+    """The Model of a joint fit (the discrepancy's final one): nominal parameters and each candidate's own
+    parameters with their uncertainties (jackknife and systematic), named `names` (one per candidate)."""
+    std, added_std = with_systematic(final)
+    nominal = {k: (v, std.get(k)) for k, v in final.parameters.items() if k != 'sample_period'}
+    effects = [ModelEffect(name, candidate.name,
+                           {p: (float(v), float(s)) for p, v, s in zip(candidate.parameters, final.added[part],
+                                                                       added_std[part])},
+                           candidate.settings())
+               for name, (candidate, part) in zip(names, final.added_slices())]
+    return Model(final.data.sample_period, nominal, effects, provenance(data, command))
+
+
+def _candidate(effect, source):
+    if effect.candidate not in CANDIDATES:
+        raise InputError(f'{source}: effect {effect.effect!r}: no candidate {effect.candidate!r} is registered '
+                         f'(known: {", ".join(CANDIDATES)})')
+    return CANDIDATES[effect.candidate]()
+
+
+def identify_model(model, recording, source='model file'):
+    """The model's structure (nominal + its effects) identified on `recording`: the joint Fit, each effect's
+    variant (a delay, a time constant) searched again on these data."""
+    data = Data.from_recording(recording)
+    with np.errstate(all='ignore'):
+        current = fit(data)
+        for effect in model.effects:
+            candidate = _candidate(effect, source)
+
+            def heldout(variant):
+                trial = fit(variant.realigned(data), current.candidates + (variant,), current, relinearise=False)
+                error = trial.heldout.sum()
+                return error if np.isfinite(error) else np.inf
+            best = min(candidate.variants(data), key=heldout)
+            current = fit(best.realigned(data), current.candidates + (best,), current)
+    if not physical(current.parameters):
+        raise InputError(f'{recording.source}: the model cannot be identified from these data')
+    return current
+
+
+def model_fit(model, recording, source='model file'):
+    """A Fit that holds the model as given (nothing identified), on `recording`'s data: for predictions."""
+    data = Data.from_recording(recording)
+    values = model.values()
+    missing = [k for k in (NOMINAL['force'] if 'force' in data.kinds else NOMINAL['electrical'] + NOMINAL['mechanical'])
+               if k not in values]
+    if missing:
+        raise InputError(f'{source}: the model lacks {", ".join(missing)} for these data')
+    candidates, added = [], []
+    for effect in model.effects:
+        candidate = _closest_variant(_candidate(effect, source), effect.settings, data)
+        candidates.append(candidate)
+        given = effect.values()
+        missing = [p for p in candidate.parameters if p not in given]
+        if missing:
+            raise InputError(f'{source}: effect {effect.effect} lacks {", ".join(missing)}')
+        added += [given[p] for p in candidate.parameters]
+    for candidate in candidates:   # a delay re-aligns the data the model sees
+        data = candidate.realigned(data)
+    theta = _coefficients(values, data)
+    parameters = dict(values, sample_period=data.sample_period)
+    return Fit(data, tuple(candidates), theta, np.array(added, dtype=float), np.zeros(len(added)), {}, {}, None,
+               parameters, {}, values, None, None)
+
+
+def _closest_variant(candidate, settings, data):
+    """The variant of `candidate` on `data` whose numeric settings are closest (relatively) to `settings`."""
+    def distance(variant):
+        total = 0.0
+        for key, wanted in settings.items():
+            have = variant.settings().get(key)
+            if isinstance(wanted, bool) or not isinstance(wanted, (int, float)):
+                total += 0.0 if have == wanted else 1e9
+            elif isinstance(have, (int, float)) and np.isfinite(wanted) and np.isfinite(have):
+                total += abs(np.log((abs(have) + 1e-300) / (abs(wanted) + 1e-300)))
+            else:
+                total += 0.0 if have == wanted else 1e9
+        return total
+    return min(candidate.variants(data), key=distance)
+
+
+def _coefficients(p, data):
+    """The tied regression coefficients of physical parameters: the inverse of physical.coil_parameters (and
+    of force_parameters without coil signals)."""
+    ts = data.sample_period
+    if 'force' in data.kinds:
+        return {'force': np.array([1.0 / p['mass'], p['damping'] / p['mass'], p['load_force'] / p['mass']])}
+    h = p['resistance'] * ts / p['inductance']
+    alpha = np.exp(-h)
+    beta = (1.0 - alpha) / p['resistance']
+    km = p['emf_constant']
+    # the intra-sample back-EMF rise acts as the extra mass Km^2 eta Ts / R (regressors.py)
+    km_over_m = km / (p['mass'] - km * km * emf_lag(h) * ts / p['resistance'])
+    return {'electrical': np.array([alpha, beta, km * beta]),
+            'mechanical': km_over_m * np.array([1.0, p['damping'] / km, p['load_force'] / km])}
