@@ -130,10 +130,33 @@ def test_online_estimator_in_frames_equals_the_batch_run():
     assert np.isnan(errors[:4]).all()
     model = identify_arx(u, y, 4, 3, NK, forgetting=0.995)
     np.testing.assert_array_equal(estimator.model.theta, model.theta)
+    # from the rows' mean and scatter: ill-conditioned rows (see paper_input) cost a few digits of the MSE
+    assert estimator.model.fit_percent == pytest.approx(model.fit_percent, rel=1e-9)
+    assert estimator.model.mse == pytest.approx(model.mse, rel=1e-7)
     np.testing.assert_array_equal(errors[4:], RecursiveLeastSquares(7, forgetting=0.995).update_block(
         *arx_regressors(u, y, 4, 3, NK)))
     estimator.reset()
     assert np.isnan(estimator.update(u[:3], y[:3])).all() and estimator.rls.samples == 0
+
+
+def test_online_estimator_after_a_gap_uses_no_row_that_spans_it():
+    u = white_input(1000, seed=5)
+    y = simulate(u, noise=0.01)
+    estimator = ArxEstimator(4, 3, NK)
+    estimator.update(u[:600], y[:600])
+    estimator.gap()
+    errors = estimator.update(u[610:], y[610:])
+    assert np.isnan(errors[:4]).all() and np.isfinite(errors[4:]).all()
+    rows = [arx_regressors(u[a:b], y[a:b], 4, 3, NK) for a, b in ((0, 600), (610, 1000))]
+    Phi, Y = (np.concatenate(parts) for parts in zip(*rows))
+    np.testing.assert_array_equal(estimator.model.theta, identify_arx_rows(Phi, Y))
+    assert estimator.model.mse == pytest.approx(np.mean((Y - Phi @ estimator.model.theta) ** 2), rel=1e-9)
+
+
+def identify_arx_rows(Phi, Y):
+    rls = RecursiveLeastSquares(Phi.shape[1])
+    rls.update_block(Phi, Y)
+    return rls.theta
 
 
 def test_to_dict_has_the_contract_keys():

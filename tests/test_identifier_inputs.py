@@ -1,6 +1,7 @@
 """The identifier node on a real drive's topics of standard message types (its input_topics): the final estimate
 equals the offline identification of the same samples; bad messages are survived and counted; an input topic
-of a type it cannot read ends it with one line. Every node refuses a parameter of the wrong type with one line."""
+of a type it cannot read ends it with one line. Every node refuses a parameter of the wrong type with one line, the
+identifier bad ARX settings too."""
 import signal
 import subprocess
 
@@ -126,6 +127,7 @@ def test_an_input_topic_of_another_type_ends_the_identifier_with_one_line(tmp_pa
 
 @pytest.mark.parametrize('node, name, value', [
     ('identifier', 'sample_period', []), ('identifier', 'sample_period', 'fast'), ('identifier', 'model', []),
+    ('identifier', 'orders', 'fast'),
     ('plant', 'duration', []), ('sensor', 'seed', []), ('controller', 'bandwidth', []),
 ])
 def test_a_parameter_of_the_wrong_type_ends_the_node_with_one_line(tmp_path, node, name, value):
@@ -133,3 +135,16 @@ def test_a_parameter_of_the_wrong_type_ends_the_node_with_one_line(tmp_path, nod
                             capture_output=True, text=True, timeout=60, env=isolated_env())
     assert result.returncode == 2 and result.stderr.count('\n') == 1, result.stderr
     assert result.stderr.startswith(f'{node}: error: ') and repr(name) in result.stderr
+
+
+@pytest.mark.parametrize('arx, message', [
+    ({'orders': [4, 3]}, 'orders [4, 3]: need three integers'), ({'orders': [0, 0, 1]}, 'cannot both be zero'),
+    ({'input': 'force'}, "input 'force' is not one of"), ({'output': 'voltage'}, 'input and output are both voltage'),
+    ({'input_topics': INPUTS}, 'input_topics maps voltage, current, position; map voltage, current'),
+])
+def test_bad_arx_settings_end_the_identifier_with_one_line(tmp_path, arx, message):
+    result = subprocess.run([EMLA, 'run', 'identifier', '--params-file', params_file(tmp_path, 'identifier',
+                                                                                    model='arx', **arx)],
+                            capture_output=True, text=True, timeout=60, env=isolated_env())
+    assert result.returncode == 2 and result.stderr.count('\n') == 1, result.stderr
+    assert result.stderr.startswith('identifier: error: ') and message in result.stderr

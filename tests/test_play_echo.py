@@ -1,7 +1,8 @@
-"""`emla simulate`, `emla play` into a live identifier node, and `emla echo`."""
+"""`emla simulate`, `emla play` into a live identifier node (grey box and ARX), and `emla echo`."""
 import json
 import subprocess
 
+import numpy as np
 import pytest
 import yaml
 
@@ -48,6 +49,40 @@ def test_a_live_identifier_fed_by_play_agrees_with_offline_identification(simula
                                         text=True, timeout=120).stdout)
     for name, value in offline['parameters'].items():
         assert online[name] == pytest.approx(value, rel=1e-9)
+
+
+def test_a_live_identifier_in_arx_mode_ends_with_the_offline_arx_model(simulated, tmp_path, ros_env):
+    orders, forgetting, signals = [4, 3, 1], 0.9995, ('voltage', 'position')  # the DC-motor paper's orders
+    params = tmp_path / 'identifier.yaml'
+    params.write_text(yaml.safe_dump({'/emla/identifier': {'ros__parameters': {
+        'use_sim_time': True, 'model': 'arx', 'orders': orders, 'forgetting': forgetting,
+        'input': signals[0], 'output': signals[1]}}}))
+    with processes() as start:
+        identifier = start([EMLA, 'run', 'identifier', '--params-file', str(params)], env=ros_env)
+        play = start([EMLA, 'play', str(simulated), '--rate', '0', '--wait', '60',
+                      '--topics', *(f'/emla/{name}' for name in signals)], env=ros_env)
+        _, err = play.communicate(timeout=180)
+        assert play.returncode == 0, err
+        assert 'paced by the live identifier' in err and 'no subscriber' not in err
+        echo = start([EMLA, 'echo', '/emla/arx_model', '--count', '1', '--timeout', '30'], env=ros_env)
+        out, err = echo.communicate(timeout=60)
+        assert echo.returncode == 0 and identifier.poll() is None, err
+    online = next(yaml.safe_load_all(out))
+    assert online['header']['stamp'] == {'sec': 1, 'nanosec': 0}
+    assert (online['input_signal'], online['output_signal']) == signals
+    assert [online['na'], online['nb'], online['nk']] == orders and online['forgetting'] == forgetting
+    assert online['samples_used'] == 10000 - 4 and online['sample_period'] == 1e-4
+    offline = json.loads(subprocess.run(
+        [EMLA, 'identify', str(simulated), '--model', 'arx', '--orders', *map(str, orders), '--forgetting',
+         str(forgetting), '--input', signals[0], '--output', signals[1]],
+        check=True, capture_output=True, text=True, timeout=120).stdout)
+    assert online['a'] == pytest.approx(offline['a'], rel=1e-9) and online['b'] == pytest.approx(offline['b'], rel=1e-9)
+    for roots in ('poles', 'zeros'):
+        pairs = np.column_stack((online[f'{roots}_real'], online[f'{roots}_imag']))
+        assert pairs == pytest.approx(np.array(offline[roots]), rel=1e-9, abs=1e-12), roots
+    assert online['fit_percent'] == pytest.approx(offline['fit_percent'], rel=1e-6)
+    assert online['mse'] == pytest.approx(offline['mse'], rel=1e-6)
+    assert abs(online['prediction_error']) < 10 * offline['mse'] ** 0.5
 
 
 def test_echo_prints_yaml_documents_with_long_arrays_shortened(simulated, ros_env):

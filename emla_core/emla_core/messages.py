@@ -1,5 +1,6 @@
 """One builder and one reader per message type of the suite, used by the nodes, the recorder, `emla simulate`
-and `emla import` alike (bags store the same messages the graph publishes, serialised by rclpy).
+and `emla import` alike (bags store the same messages the graph publishes, serialised by rclpy); ArxModel has
+a builder only (no bag holds it).
 
 The readers take either an rclpy message or a rosbags one (a bag read back): both carry the same fields.
 """
@@ -10,7 +11,7 @@ import numpy as np
 from builtin_interfaces.msg import Time
 
 from emla_core.parameters import PARAMETER_NAMES
-from emla_msgs.msg import ParameterEstimate, SampleFrame
+from emla_msgs.msg import ArxModel, ParameterEstimate, SampleFrame
 
 
 def message_class(msgtype):
@@ -81,3 +82,21 @@ def estimate_std(msg):
 def estimate_covariance(msg):
     """The 6 x 6 covariance of a ParameterEstimate (PARAMETER_NAMES order; NaN where unknown)."""
     return np.asarray(msg.covariance, dtype=float).reshape(len(PARAMETER_NAMES), len(PARAMETER_NAMES))
+
+
+# ---- emla_msgs/ArxModel ----
+
+def arx_message(stamp, model, signals, sample_period, samples=0, prediction_error=float('nan')):
+    """An ArxModel stamped `stamp` (ns) of `model` (an emla_identification.arx.ArxModel: orders, a, b, poles, zeros,
+    forgetting, fit_percent, mse) from the input to the output signal, signals = (input, output)."""
+    na, nb, nk = model.orders
+    poles, zeros = model.poles, model.zeros
+    msg = ArxModel(input_signal=signals[0], output_signal=signals[1], na=na, nb=nb, nk=nk,
+                   sample_period=float(sample_period), a=model.a.tolist(), b=model.b.tolist(),
+                   poles_real=poles.real.tolist(), poles_imag=poles.imag.tolist(),
+                   zeros_real=zeros.real.tolist(), zeros_imag=zeros.imag.tolist(),
+                   forgetting=float(model.forgetting), samples_used=int(samples),
+                   prediction_error=float(prediction_error), fit_percent=float(model.fit_percent),
+                   mse=float(model.mse))
+    msg.header.stamp = time_msg(stamp)
+    return msg

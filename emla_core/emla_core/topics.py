@@ -11,6 +11,7 @@ SIGNALS = ('voltage', 'current', 'position')   # the signals of the graph's fram
 
 SAMPLE_FRAME = 'emla_msgs/msg/SampleFrame'
 PARAMETER_ESTIMATE = 'emla_msgs/msg/ParameterEstimate'
+ARX_MODEL = 'emla_msgs/msg/ArxModel'
 TIME = 'builtin_interfaces/msg/Time'
 
 
@@ -24,6 +25,7 @@ MEASURED_TOPICS = {name: signal_topic(name) for name in SIGNALS}          # samp
 COMMAND_TOPIC = signal_topic('voltage_command')                           # controller -> plant
 REFERENCE_TOPIC = signal_topic('reference')                               # the position the controller tracks
 PARAMETERS_TOPIC = signal_topic('parameters')                             # the identifier's online estimates
+ARX_MODEL_TOPIC = signal_topic('arx_model')                               # its online ARX model (model arx)
 TRUE_PARAMETERS_TOPIC = f'{NAMESPACE}plant/parameters'                    # the simulated plant's true parameters
 DONE_TOPIC = f'{NAMESPACE}plant/done'                                     # the end time of a run
 START_TOPIC = MEASURED_TOPICS['position']   # the plant's start barrier counts this topic's subscriptions
@@ -58,12 +60,16 @@ RECORDED = {
     PARAMETERS_TOPIC: (PARAMETER_ESTIMATE, 'latched'),
     DONE_TOPIC: (TIME, 'latched'),
 }
+# The suite's topics a run does not record, as above: the identifier's in ARX mode (a run's identifier is a
+# grey-box one, for the controller; the recorder's start barrier waits for a publisher of each recorded topic).
+UNRECORDED = {ARX_MODEL_TOPIC: (ARX_MODEL, 'latched')}
 
 
 def qos_kind(topic, msgtype):
     """The QoS kind a topic is published with: its own if the suite knows it, else by message type."""
-    if topic in RECORDED:
-        return RECORDED[topic][1]
+    known = RECORDED.get(topic) or UNRECORDED.get(topic)
+    if known:
+        return known[1]
     return 'frame' if msgtype == SAMPLE_FRAME else 'latched' if msgtype == PARAMETER_ESTIMATE else 'diagnostics'
 
 

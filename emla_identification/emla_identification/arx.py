@@ -5,6 +5,9 @@
 is linear in theta = [a1 .. a_na, b1 .. b_nb] with the regressor
 phi(t) = [-y(t-1) .. -y(t-na), u(t-nk) .. u(t-nk-nb+1)]. Regressor rows start at the first sample whose
 history is complete (no zero padding).
+
+Defaults of `emla identify --model arx` and the identifier node's ARX mode: orders 2 2 1 from the voltage to
+the current (the exact structure of the coil current's response to the held voltage).
 """
 
 from dataclasses import dataclass
@@ -12,6 +15,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .rls import RecursiveLeastSquares
+
+DEFAULT_ORDERS = (2, 2, 1)
+DEFAULT_SIGNALS = ('voltage', 'current')  # (input u, output y)
 
 
 def _check_orders(na, nb, nk):
@@ -155,7 +161,9 @@ def identify_arx(u, y, na, nb, nk, forgetting=1.0, initial_covariance=1e6):
 
 
 class ArxEstimator:
-    """Online ARX identification from consecutive frames of u and y (history kept across frames)."""
+    """Online ARX identification from consecutive frames of u and y (history kept across frames, restarted by
+    gap()). Its `model` is identify_arx's on the same samples: the same theta, and the fit and MSE of the latest
+    theta over every row used, from the rows' mean and scatter (to rounding; ill-conditioned rows cost digits)."""
 
     def __init__(self, na, nb, nk, **rls_options):
         self._orders = _check_orders(na, nb, nk)
@@ -165,20 +173,49 @@ class ArxEstimator:
 
     def reset(self):
         self.rls.reset()
+        self._rows = 0  # used so far; their mean z and scatter sum (z - mean)(z - mean)', z = [phi, y]
+        self._mean = np.zeros(self.rls.n + 1)
+        self._scatter = np.zeros((self.rls.n + 1,) * 2)
+        self.gap()
+
+    def gap(self):
+        """Samples were lost: the next frame does not follow on from the last one, and no row will span the gap
+        (the estimate is kept)."""
         self._u = self._y = np.empty(0)
 
     def update(self, u, y):
-        """Feed one frame; returns its a-priori prediction errors (NaN while the history is incomplete)."""
+        """Feed one frame; returns its a-priori prediction errors (NaN while the history is incomplete, and
+        where a non-finite sample makes the recursion skip the row)."""
         u = np.concatenate((self._u, np.asarray(u, dtype=float).reshape(-1)))
         y = np.concatenate((self._y, np.asarray(y, dtype=float).reshape(-1)))
         Phi, Y = arx_regressors(u, y, *self._orders)
         frame = len(u) - len(self._u)
         errors = np.full(frame, np.nan)
-        errors[frame - len(Y):] = self.rls.update_block(Phi, Y)
+        row_errors = self.rls.update_block(Phi, Y)
+        errors[frame - len(Y):] = row_errors
+        self._add_rows(np.column_stack((Phi, Y))[np.isfinite(row_errors)])
         keep = max(len(u) - self._lag, 0)
         self._u, self._y = u[keep:], y[keep:]
         return errors
 
+    def _add_rows(self, z):
+        """Merge the rows z into the mean and scatter (Chan et al.: no sums of squares of large means)."""
+        if not len(z):
+            return
+        mean = z.mean(axis=0)
+        centred, delta, rows = z - mean, mean - self._mean, self._rows + len(z)
+        self._scatter += centred.T @ centred + np.outer(delta, delta) * (self._rows * len(z) / rows)
+        self._mean += delta * (len(z) / rows)
+        self._rows = rows
+
     @property
     def model(self):
-        return ArxModel.from_theta(self.rls.theta, *self._orders, forgetting=self.rls.forgetting)
+        theta = self.rls.theta
+        if not self._rows:
+            return ArxModel.from_theta(theta, *self._orders, forgetting=self.rls.forgetting)
+        residual = np.append(-theta, 1.0)  # z . residual = y - phi' theta
+        squares = max(float(residual @ self._scatter @ residual), 0.0) + self._rows * (self._mean @ residual) ** 2
+        with np.errstate(divide='ignore', invalid='ignore'):  # a constant output has no fit
+            fit = 100.0 * (1.0 - np.sqrt(squares / self._scatter[-1, -1]))
+        return ArxModel.from_theta(theta, *self._orders, forgetting=self.rls.forgetting, fit_percent=float(fit),
+                                   mse=float(squares / self._rows))

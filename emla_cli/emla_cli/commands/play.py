@@ -1,9 +1,10 @@
 """Republish a bag's SampleFrame and ParameterEstimate topics with their recorded timing, and /clock.
 
 Messages go out in stamp order (simulated time), paced by their stamps scaled by --rate. --rate 0: as fast
-as a live identifier takes them: at most 50 ms of bag time ahead of its latest /emla/parameters estimate
-(stamped with the end of the data it has used), so its frame queues never overflow; the bag's own
-/emla/parameters is then not played. Without an identifier, --rate 0 sends everything at once.
+as a live identifier takes them: at most 50 ms of bag time ahead of its latest estimate (/emla/parameters,
+or /emla/arx_model in ARX mode; stamped with the end of the data it has used), so its frame queues never
+overflow; the bag's own /emla/parameters is then not played. Without an identifier, --rate 0 sends everything
+at once.
 /clock follows the stamps, so nodes with use_sim_time run on the bag's time. At the end /emla/plant/done
 carries the end of the played data, as the plant sends it, so a live identifier publishes its final estimate
 (see emla_core.nodes.common). The bag is read by emla_core.bag (MCAP): a corrupt chunk is skipped with a warning.
@@ -34,6 +35,8 @@ PLAYED_TYPES = (SAMPLE_FRAME, PARAMETER_ESTIMATE)
 LEAD = 50_000_000        # ns of bag time --rate 0 runs ahead of the identifier (well within the 1000-frame queues)
 STALL_TIMEOUT = 10.0     # s without progress of the identifier before --rate 0 gives up
 ACK_TIMEOUT = 10.0       # s for the subscribers to acknowledge the last messages
+# The identifier's estimates (grey box, ARX), each stamped with the end of the data it has used
+ESTIMATES = {topics.PARAMETERS_TOPIC: PARAMETER_ESTIMATE, topics.ARX_MODEL_TOPIC: topics.ARX_MODEL}
 
 
 def add_arguments(parser):
@@ -84,11 +87,12 @@ class IdentifierPace:
     """--rate 0 flow control: how far a live identifier has got (its latest estimate's stamp)."""
 
     def __init__(self, node, executor, start):
+        from emla_core.messages import message_class
         from emla_core.nodes import common
-        from emla_msgs.msg import ParameterEstimate
         self.executor = executor
         self.covered = start
-        node.create_subscription(ParameterEstimate, topics.PARAMETERS_TOPIC, self._on_estimate, common.LATCHED_QOS)
+        for topic, msgtype in ESTIMATES.items():
+            node.create_subscription(message_class(msgtype), topic, self._on_estimate, common.LATCHED_QOS)
 
     def _on_estimate(self, msg):
         self.covered = max(self.covered, stamp_to_ns(msg.header.stamp))
@@ -106,7 +110,8 @@ class IdentifierPace:
 
 
 def _live_identifier(node):
-    return any(info.node_name != node.get_name() for info in node.get_publishers_info_by_topic(topics.PARAMETERS_TOPIC))
+    return any(info.node_name != node.get_name()
+               for topic in ESTIMATES for info in node.get_publishers_info_by_topic(topic))
 
 
 def run(args):

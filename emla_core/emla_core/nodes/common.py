@@ -20,6 +20,7 @@ Aligned by stamp (as emla_core.bag.read_bag does), the state samples at t_j pair
 | /emla/{voltage,current,position}       | emla_msgs/SampleFrame (measured)| sensor     | FRAME   |
 | /emla/voltage_command, /emla/reference | emla_msgs/SampleFrame           | controller | FRAME   |
 | /emla/parameters                       | emla_msgs/ParameterEstimate     | identifier | LATCHED |
+| /emla/arx_model (instead, model arx)   | emla_msgs/ArxModel              | identifier | LATCHED |
 | /diagnostics                           | diagnostic_msgs/DiagnosticArray | identifier*| DIAGNOSTICS |
 FRAME: reliable, transient local, keep last 1000 (1 s of default frames: a reader outside the loop, such as a
 non-adaptive controller's identifier or a recorder, may lag that much without losing frames);
@@ -38,9 +39,9 @@ Deterministic lockstep in simulated time:
    after the final frame: that command, for the period after the end, goes unused).
 4. Plant: advances period k only with the command stamped k Tc in hand; publishes its voltage and state
    frames, then /clock = (k+1) Tc.
-5. Identifier: feeds the aligned samples in time order to the estimator and publishes /emla/parameters at
-   every multiple of `publish_period` that ends a period, stamped with the END of the data it covers: the
-   estimate stamped t has used every voltage interval before t. An adaptive controller (its
+5. Identifier: feeds the aligned samples in time order to the estimator and publishes /emla/parameters (in
+   ARX mode /emla/arx_model) at every multiple of `publish_period` that ends a period, stamped with the END of
+   the data it covers: the estimate stamped t has used every voltage interval before t. An adaptive controller (its
    `adaptation_period` is a multiple of that publish_period) waits before the command for each period
    starting at t = j adaptation_period (j >= 1) for exactly the estimate stamped t. Lag: the command held from
    t on uses the estimate from all the data before t (as the in-process loop, emla_control.loop, does), so a

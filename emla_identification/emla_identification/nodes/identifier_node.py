@@ -1,15 +1,19 @@
-"""The identifier node: online grey-box identification (emla_identification.online) of the measured frames.
+"""The identifier node: online grey-box identification (emla_identification.online) of the measured frames,
+or with model `arx` a black-box ARX(na, nb, nk) model of one signal's response to another (emla_identification.arx,
+the recursion of `emla identify --model arx`: from theta = 0 and P = 1e6 I, with the same forgetting).
 
-Publishes /emla/parameters (latched) at every multiple of `publish_period` that ends a control period,
-stamped with the end of the data used, and a final estimate at the end time /emla/plant/done announces
-(see emla_core.nodes.common); /diagnostics with each estimate. Bad frames (see common) are reported and
-skipped, non-finite samples too: the estimator gets only finite samples, and a gap() wherever some are missing.
+Publishes /emla/parameters (latched; with model arx /emla/arx_model instead: a, b, poles, zeros, fit and MSE)
+at every multiple of `publish_period` that ends a control period, stamped with the end of the data used, and a
+final estimate at the end time /emla/plant/done announces (see emla_core.nodes.common); /diagnostics with each
+estimate. Bad frames (see common) are reported and skipped. Non-finite samples: the grey-box estimator gets only
+finite samples, and a gap() wherever some are missing; the ARX one gets them in place and skips the regression
+rows they are in (as identify_arx does), so its last model equals `emla identify --model arx` on the same data.
 
 Its inputs are the measured /emla/ SampleFrames, or with `input_topics` a real drive's topics of standard
 message types, e.g. ['voltage=/drive/voltage', 'current=/drive/current', 'position=/joint_states:position[slider]']
-(the syntax of `emla identify --topics`): each sample goes on the sample_period grid by its message's header
-stamp, else its receive time, then takes the frames' path (common.StandardTopics). The time stamps put
-publish instants and the done signal on that time line too.
+(the syntax of `emla identify --topics`; with model arx only the input and output need mapping): each sample
+goes on the sample_period grid by its message's header stamp, else its receive time, then takes the frames'
+path (common.StandardTopics). The time stamps put publish instants and the done signal on that time line too.
 """
 import math
 import sys
@@ -23,17 +27,23 @@ from std_msgs.msg import Header
 from emla_core import messages, topics
 from emla_core.errors import InputError
 from emla_core.nodes import common
+from emla_identification.arx import DEFAULT_ORDERS, DEFAULT_SIGNALS, ArxEstimator
 from emla_identification.online import OnlineIdentifier
 from emla_identification.physical import MODEL_PARAMETERS
-from emla_msgs.msg import ParameterEstimate
+from emla_msgs.msg import ArxModel, ParameterEstimate
 
 SPECS = [
     common.Spec('sample_period', 1e-4, 'sample period Ts of the inputs (the grid of input_topics), s', 1e-6, 1e-2),
-    common.Spec('model', 'full', f'grey-box model, one of {sorted(MODEL_PARAMETERS)}'),
+    common.Spec('model', 'full', f'grey-box model, one of {sorted(MODEL_PARAMETERS)}, or arx (black box: orders, '
+                                 'input, output; published on /emla/arx_model)'),
     common.Spec('forgetting', 1.0, 'RLS forgetting factor lambda (1 = no forgetting), 1', 0.5, 1.0),
     common.Spec('memory_time', 0.0,
                 'memory time constant tau instead of a forgetting factor, lambda = 1 - Ts/tau (0 = unused), s',
                 0.0, 1e6),
+    common.Spec('orders', list(DEFAULT_ORDERS),
+                'model arx: [na, nb, nk], the output lags, input lags and input delay (samples)'),
+    common.Spec('input', DEFAULT_SIGNALS[0], f'model arx: the input signal u, one of {list(topics.SIGNALS)}'),
+    common.Spec('output', DEFAULT_SIGNALS[1], f'model arx: the output signal y, one of {list(topics.SIGNALS)}'),
     common.Spec('publish_period', topics.ESTIMATE_PERIOD,
                 'publish an estimate at multiples of this time (of the samples: simulated, or the inputs\' stamps), s',
                 1e-6, 1e6),
@@ -61,18 +71,37 @@ def warm_up(identifier):
     """Run the estimator's compiled kernels once (about 0.5 s the first time), before the node subscribes:
     the plant starts only then, so the first frames do not pile up (a non-adaptive loop does not wait)."""
     ramp = np.linspace(0.0, 1.0, 32)
-    identifier.update(ramp, ramp, ramp)
-    estimate(identifier)
+    if isinstance(identifier, ArxEstimator):
+        identifier.update(ramp, ramp)
+    else:
+        identifier.update(ramp, ramp, ramp)
+        estimate(identifier)
 
 
-def standard_inputs(mapping):
-    """{signal: TopicSignal} of the input_topics parameter; {} if it is empty."""
+def arx_signals(p):
+    """(input, output) with model arx, else None; the model and the ARX parameters checked."""
+    if p.model != 'arx':
+        if p.model not in MODEL_PARAMETERS:
+            raise InputError(f'model {p.model!r} is not one of {sorted(MODEL_PARAMETERS)} or arx')
+        return None
+    if len(p.orders) != 3:
+        raise InputError(f'orders {list(p.orders)}: need three integers [na, nb, nk]')
+    for name in ('input', 'output'):
+        if getattr(p, name) not in topics.SIGNALS:
+            raise InputError(f'{name} {getattr(p, name)!r} is not one of {list(topics.SIGNALS)}')
+    if p.input == p.output:
+        raise InputError(f'input and output are both {p.input}; choose two signals')
+    return p.input, p.output
+
+
+def standard_inputs(mapping, signals):
+    """{signal: TopicSignal} of the input_topics parameter, which must map `signals`; {} if it is empty."""
     if not mapping:
         return {}
     from emla_core.bag.foreign import parse_topics  # with rosbags: loaded only when used
     inputs = parse_topics(','.join(mapping), 'input_topics')
-    if set(inputs) != set(topics.SIGNALS):
-        raise InputError(f'input_topics maps {", ".join(inputs)}; map voltage, current and position')
+    if set(inputs) != set(signals):
+        raise InputError(f'input_topics maps {", ".join(inputs)}; map {", ".join(signals)}')
     return inputs
 
 
@@ -82,24 +111,33 @@ class IdentifierNode(common.EmlaNode):
     def __init__(self):
         super().__init__()
         p = common.declare(self, SPECS)
-        if p.model not in MODEL_PARAMETERS:
-            raise InputError(f'model {p.model!r} is not one of {sorted(MODEL_PARAMETERS)}')
-        self.inputs = standard_inputs(p.input_topics)
-        settings = dict(sample_period=p.sample_period, model=p.model, forgetting=p.forgetting,
-                        memory_time=p.memory_time or None)
-        self.identifier = OnlineIdentifier(**settings)
-        warm_up(OnlineIdentifier(**settings))
+        self.arx = arx_signals(p)
+        self.signals = self.arx or topics.SIGNALS  # what the estimator is fed, in its update()'s order
+        self.inputs = standard_inputs(p.input_topics, self.signals)
+        memory = dict(sample_period=p.sample_period, forgetting=p.forgetting, memory_time=p.memory_time or None)
+        if self.arx:
+            self.identifier = ArxEstimator(*p.orders, **memory)
+            warm_up(ArxEstimator(*p.orders, **memory))
+            self.feed = self.feed_arx
+            self.prediction_error = math.nan  # the latest finite one
+        else:
+            self.identifier = OnlineIdentifier(model=p.model, **memory)
+            warm_up(OnlineIdentifier(model=p.model, **memory))
+            self.feed = self.identifier.update
+        self.sample_period = p.sample_period
         self.step = topics.to_ns(p.sample_period)
         self.publish_step = topics.to_ns(p.publish_period)
         self.covered = 0  # ns: the estimator has used every (usable) voltage interval before this time
         self.fed = None  # ns: the end of the samples fed last (the next ones follow on from there, or a gap)
         self.published = None  # stamp of the latest estimate
         self.end = None  # end of the run, from /emla/plant/done
-        self.estimates = self.create_publisher(ParameterEstimate, topics.PARAMETERS_TOPIC, common.LATCHED_QOS)
+        self.estimates = self.create_publisher(ArxModel, topics.ARX_MODEL_TOPIC, common.LATCHED_QOS) if self.arx \
+            else self.create_publisher(ParameterEstimate, topics.PARAMETERS_TOPIC, common.LATCHED_QOS)
         self.diagnostics = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS_TOPIC, common.DIAGNOSTICS_QOS)
         faults = common.Faults(self)
         self.measured = common.AlignedSamples(
-            self, {name: spec.describe() for name, spec in self.inputs.items()} or topics.MEASURED_TOPICS,
+            self, {name: spec.describe() for name, spec in self.inputs.items()}
+            or {name: topics.MEASURED_TOPICS[name] for name in self.signals},
             self.on_samples, faults, p.sample_period, self.publish_step, subscribe=not self.inputs)
         if self.inputs:
             common.StandardTopics(self, self.inputs, self.measured.receive, faults, p.sample_period)
@@ -110,14 +148,15 @@ class IdentifierNode(common.EmlaNode):
         return super().ready() + (f'; subscribing to {waiting} once they have a publisher' if waiting else '')
 
     def on_samples(self, start, samples):
-        signals = [samples[name] for name in ('voltage', 'current', 'position')]
-        finite = np.isfinite(signals).all(axis=0)
-        for first, last in finite_runs(finite):
+        signals = [samples[name] for name in self.signals]
+        # ARX: every sample, in place (see the module doc)
+        usable = np.full(len(signals[0]), True) if self.arx else np.isfinite(signals).all(axis=0)
+        for first, last in finite_runs(usable):
             if start + first * self.step != self.fed:
                 self.identifier.gap()
-            self.identifier.update(*(signal[first:last] for signal in signals))
+            self.feed(*(signal[first:last] for signal in signals))
             self.fed = start + last * self.step
-        self.covered = start + len(finite) * self.step
+        self.covered = start + len(usable) * self.step
         if self.covered % self.publish_step == 0 or self.covered == self.end:
             self.publish()
 
@@ -126,14 +165,37 @@ class IdentifierNode(common.EmlaNode):
         if self.covered == self.end and self.published != self.end:
             self.publish()
 
+    def feed_arx(self, u, y):
+        errors = self.identifier.update(u, y)
+        finite = errors[np.isfinite(errors)]
+        if finite.size:
+            self.prediction_error = float(finite[-1])
+
     def publish(self):
+        status = self.publish_arx() if self.arx else self.publish_parameters()
+        self.diagnostics.publish(DiagnosticArray(header=Header(stamp=messages.time_msg(self.covered)), status=[status]))
+        self.published = self.covered
+
+    def publish_arx(self):
+        """Publish the ARX model now; its diagnostic status."""
+        model, samples = self.identifier.model, self.identifier.rls.samples
+        self.estimates.publish(messages.arx_message(self.covered, model, self.arx, self.sample_period, samples,
+                                                    self.prediction_error))
+        return DiagnosticStatus(
+            level=DiagnosticStatus.OK if samples else DiagnosticStatus.WARN, name='emla/identifier', hardware_id='emla',
+            message=f'ARX{model.orders} of {self.arx[1]} from {self.arx[0]}: {samples} samples', values=[
+                KeyValue(key='largest_pole_modulus', value=f'{max(np.abs(model.poles), default=0.0):.9g}'),
+                KeyValue(key='samples', value=str(samples)),
+                KeyValue(key='covariance_trace', value=f'{np.trace(self.identifier.rls.covariance):g}'),
+                KeyValue(key='prediction_error', value=f'{self.prediction_error:g}')])
+
+    def publish_parameters(self):
+        """Publish the grey-box estimate now; its diagnostic status."""
         values, std, (names, covariance) = estimate(self.identifier)
-        stamp = messages.time_msg(self.covered)
         self.estimates.publish(messages.estimate_message(self.covered, values, std, (names, covariance),
                                                        self.identifier.samples, self.identifier.residual_rms))
-        self.published = self.covered
         identified = sum(math.isfinite(v) for v in values.values())
-        status = DiagnosticStatus(
+        return DiagnosticStatus(
             level=DiagnosticStatus.OK if identified == len(values) else DiagnosticStatus.WARN,
             name='emla/identifier', hardware_id='emla',
             message=f'{identified} of {len(values)} parameters identified', values=[
@@ -141,7 +203,6 @@ class IdentifierNode(common.EmlaNode):
                 KeyValue(key='covariance_trace', value=f'{np.trace(covariance):g}'),
                 KeyValue(key='samples', value=str(self.identifier.samples)),
                 KeyValue(key='residual_rms', value=f'{self.identifier.residual_rms:g}')])
-        self.diagnostics.publish(DiagnosticArray(header=Header(stamp=stamp), status=[status]))
 
 
 def main(args=None):
