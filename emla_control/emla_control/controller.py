@@ -25,6 +25,7 @@ DEFAULT_OBSERVER_BANDWIDTH = 1000.0  # Hz
 DEFAULT_MIN_SAMPLES = 1000  # 0.1 s at 10 kHz
 DEFAULT_MAX_JUMP = 2.0
 _POSITIVE = ('resistance', 'inductance', 'emf_constant', 'mass')
+EFFECTS = {'coulomb_force': inverse.FC, 'spring_stiffness': inverse.KS, 'spring_center': inverse.XC}
 
 
 class InverseSystemController:
@@ -34,11 +35,14 @@ class InverseSystemController:
     `control_period` s with the sampled current and position and the reference (s, s', s'', s''') at the
     interval's midpoint (`midpoint_times`); it returns the voltage to hold over the interval, within
     +-supply_voltage. `update_parameters` offers it new identified parameters.
+
+    effects: the model's Coulomb friction and spring, {'coulomb_force': N, 'spring_stiffness': N/m (either
+    sign), 'spring_center': m}, compensated by the law (inverse.py); none by default.
     """
 
     def __init__(self, params, *, bandwidth=DEFAULT_BANDWIDTH, damping=DEFAULT_DAMPING, control_period=1e-4,
                  supply_voltage=24.0, observer_bandwidth=DEFAULT_OBSERVER_BANDWIDTH,
-                 min_samples=DEFAULT_MIN_SAMPLES, max_jump=DEFAULT_MAX_JUMP):
+                 min_samples=DEFAULT_MIN_SAMPLES, max_jump=DEFAULT_MAX_JUMP, effects=None):
         if not (math.isfinite(control_period) and control_period > 0.0):
             raise ValueError(f'control_period must be positive, got {control_period!r}')
         if not (math.isfinite(supply_voltage) and supply_voltage > 0.0):
@@ -54,10 +58,21 @@ class InverseSystemController:
         self._c[[inverse.L1, inverse.L2]] = inverse.observer_gains(observer_bandwidth, control_period)
         self._c[inverse.TS] = self.control_period
         self._c[inverse.SUPPLY] = self.supply_voltage
+        self.set_effects(effects or {})
         self._set_parameters(params.physical())
         self._z = np.zeros(2)
         self.accepted = 0
         self.rejections = collections.Counter()  # reason -> count
+
+    def set_effects(self, effects):
+        """Compensate the model's effects {'coulomb_force', 'spring_stiffness', 'spring_center'} (missing: 0)."""
+        unknown = sorted(set(effects) - set(EFFECTS))
+        if unknown:
+            raise ValueError(f'unknown effect parameter(s) {unknown}; known: {sorted(EFFECTS)}')
+        if effects.get('coulomb_force', 0.0) < 0.0:
+            raise ValueError(f'coulomb_force must be >= 0, got {effects["coulomb_force"]!r}')
+        for name, slot in EFFECTS.items():
+            self._c[slot] = float(effects.get(name, 0.0))
 
     @property
     def parameters(self):

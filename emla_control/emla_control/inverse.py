@@ -24,6 +24,12 @@ instead of the Ts/2 r'(t) of a law evaluated at the sample instant.
 State estimates. s' comes from a two-state observer on the measured position, driven by the acceleration
 from the force balance with the measured current; s'' from the force balance. Both use the controller's
 model parameters, never the plant's state.
+
+Effects. A model with Coulomb friction Fc and a spring k (x - xc) (of either sign) has the extra force
+F_e = Fc tanh(s'/v_eps) + k (s - xc) opposing +x: it enters the force balance and the inverse like the load
+force does (I* = (m s'' + B s' + Fl + F_e)/Km, dI*/dt gains k s'/Km), so the law compensates it instead of
+leaving it to the feedback. The friction's direction is smoothed over v_eps (FRICTION_SPEED): at rest the
+feedback, not a switching feedforward, holds the part.
 """
 import math
 
@@ -31,8 +37,9 @@ import numba
 import numpy as np
 
 # Layout of the compiled law's coefficient vector.
-(R, L, KM, M, B, FL, K0, K1, K2, L1, L2, TS, SUPPLY) = range(13)
-N_COEFFICIENTS = 13
+(R, L, KM, M, B, FL, K0, K1, K2, L1, L2, TS, SUPPLY, FC, KS, XC) = range(16)
+N_COEFFICIENTS = 16
+FRICTION_SPEED = 1e-3  # m/s: v_eps of the friction's smoothed direction
 # Layout of its state vector: the observer's prior estimates of position and velocity for the next sample.
 (X_HAT, V_HAT) = range(2)
 
@@ -69,17 +76,26 @@ def observer_gains(bandwidth, sample_period):
 
 
 @numba.njit(cache=True)
+def effect_force(c, position, velocity):
+    """F_e of the model's effects (opposing +x) at a position and velocity."""
+    return c[FC] * math.tanh(velocity / FRICTION_SPEED) + c[KS] * (position - c[XC])
+
+
+@numba.njit(cache=True)
 def control_step(state, c, r0, r1, r2, r3, current, position):
     """One control interval: correct the observer with the measurement, return the (limited) voltage, and
     predict the state for the next sample. r0..r3 = reference s, s', s'', s''' at the interval midpoint."""
     e = position - state[X_HAT]
     x = state[X_HAT] + c[L1] * e
     v = state[V_HAT] + c[L2] * e
-    a = (c[KM] * current - c[B] * v - c[FL]) / c[M]
+    a = (c[KM] * current - c[B] * v - c[FL] - effect_force(c, x, v)) / c[M]
     h = 0.5 * c[TS]
     w = (r3 + c[K2] * (r2 - a) + c[K1] * (r1 - v - h * a) + c[K0] * (r0 - x - h * v - 0.5 * h * h * a)) \
         / (1.0 + c[K2] * h + 0.5 * c[K1] * h * h + c[K0] * h * h * h / 6.0)
-    u = inverse_voltage(c[R], c[L], c[KM], c[M], c[B], c[FL], v + h * a + 0.5 * h * h * w, a + h * w, w)
+    v_mid = v + h * a + 0.5 * h * h * w
+    x_mid = x + h * v + 0.5 * h * h * a
+    u = inverse_voltage(c[R], c[L], c[KM], c[M], c[B], c[FL] + effect_force(c, x_mid, v_mid), v_mid, a + h * w, w) \
+        + c[L] * c[KS] * v_mid / c[KM]
     limited = min(max(u, -c[SUPPLY]), c[SUPPLY])
     # The jerk the limited voltage really gives (u is affine in w), so saturation cannot wind the observer up.
     du_dw = (c[M] * c[L] + h * (c[M] * c[R] + c[B] * c[L]) + 0.5 * h * h * (c[B] * c[R] + c[KM] ** 2)) / c[KM]

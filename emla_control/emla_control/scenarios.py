@@ -19,7 +19,7 @@ import numpy as np
 from emla_core.errors import InputError
 from emla_core.parameters import TABLE1, ActuatorParameters
 from emla_identification.online import OnlineIdentifier
-from emla_sim.effects import ParameterChange, ResistanceDrift
+from emla_sim.effects import CoulombFriction, ParameterChange, ResistanceDrift, ReturnSpring
 from emla_sim.plant import Plant
 from emla_sim.sensor import Sensor, SensorConfig
 
@@ -56,6 +56,7 @@ class Scenario:
     seed: int = 0
     cases: dict = dataclasses.field(default_factory=lambda: dict(CASES))
     model_effects: tuple = ()  # Effect of the actuator itself (from a model file), in every case
+    compensated: tuple = ()  # cases whose controller compensates the effects learned from the first case's record
 
     def plant(self, changed=True):
         return Plant(self.params, effects=self.model_effects + (self.effects if changed else ()),
@@ -75,10 +76,10 @@ class Scenario:
     def sensor(self):
         return Sensor(SensorConfig(sample_period=self.sample_period, seed=self.seed))
 
-    def controller(self):
+    def controller(self, effects=None):
         return InverseSystemController(self.params, bandwidth=self.bandwidth, damping=self.damping,
                                        control_period=self.sample_period,
-                                       supply_voltage=self.params.supply_voltage)
+                                       supply_voltage=self.params.supply_voltage, effects=effects)
 
     def identifier(self):
         return OnlineIdentifier(self.sample_period, 'full', memory_time=self.memory_time)
@@ -90,11 +91,12 @@ class Scenario:
         adaptive = [case for case, (_, adapt) in self.cases.items() if adapt]
         return max(adaptive, key=lambda case: self.cases[case][0])
 
-    def run_case(self, case, duration=None, frame_samples=None):
+    def run_case(self, case, duration=None, frame_samples=None, effects=None):
         """The LoopResult of one case (a key of `cases`), over `duration` s (default: the scenario's), with the
-        identifier and the adaptation every `frame_samples` samples (default: the scenario's)."""
+        identifier and the adaptation every `frame_samples` samples (default: the scenario's), the controller
+        compensating `effects` (InverseSystemController's) if given."""
         changed, adapt = self.cases[case]
-        return run_closed_loop(self.plant(changed), self.controller(), self.reference,
+        return run_closed_loop(self.plant(changed), self.controller(effects), self.reference,
                                self.duration if duration is None else duration, sensor=self.sensor(),
                                identifier=self.identifier() if adapt else None, adapt=adapt,
                                frame_samples=frame_samples or self.frame_samples)
@@ -105,9 +107,13 @@ class ScenarioResult:
     scenario: Scenario
     runs: dict  # case -> LoopResult
     metrics: dict  # case -> {rms_tracking_error, max_overshoot, settling_time, peak_current}
+    compensated_effects: dict = dataclasses.field(default_factory=dict)  # what compensated cases compensated
 
     def to_json(self):
-        return {'scenario': self.scenario.name, 'cases': self.metrics}
+        out = {'scenario': self.scenario.name, 'cases': self.metrics}
+        if self.compensated_effects:
+            out['compensated_effects'] = self.compensated_effects
+        return out
 
 
 # Thermal drift: the coil's thermal resistance is chosen so that this duty (about 1.8 W at 4 ohm) heats it by
@@ -129,6 +135,13 @@ SCENARIOS = {
                          f'(thermal time constant shortened to {THERMAL_TIME_CONSTANT:g} s)',
         duration=3 * THERMAL_TIME_CONSTANT, evaluate_from=0.2,
         effects=(ResistanceDrift.fast(THERMAL_TIME_CONSTANT, thermal_resistance=THERMAL_RESISTANCE),)),
+    'friction_and_spring': Scenario(
+        'friction_and_spring', 'Table 1 actuator with 1 N of Coulomb friction and a 1500 N/m return spring; the '
+        'adaptive controller with the nominal model, then with the friction and spring that emla discrepancy '
+        'finds in the first case\'s record compensated',
+        duration=1.0, evaluate_from=0.2, effects=(CoulombFriction(force=1.0), ReturnSpring(stiffness=1500.0)),
+        cases={'adaptive_nominal_model': (True, True), 'adaptive_augmented_model': (True, True)},
+        compensated=('adaptive_augmented_model',)),
     'default': Scenario(
         'default', 'Table 1 actuator tracking the 40 ms stroke cycle under adaptive inverse-system control',
         duration=1.0, evaluate_from=0.2, cases=dict(DEFAULT_CASES)),
@@ -151,11 +164,38 @@ def get(name):
 
 
 def run_scenario(name_or_scenario, cases=None):
-    """Run the scenario's cases (all by default); a ScenarioResult with the metrics of each."""
+    """Run the scenario's cases (all by default); a ScenarioResult with the metrics of each.
+
+    A compensated case's controller compensates the effects the discrepancy workflow finds in the record of
+    the scenario's first case (which is run for it if it is not among `cases`)."""
     scenario = name_or_scenario if isinstance(name_or_scenario, Scenario) else get(name_or_scenario)
-    runs = {case: scenario.run_case(case) for case in (cases or scenario.cases)}
+    chosen = list(cases or scenario.cases)
+    first = next(iter(scenario.cases))
+    runs, learned = {}, {}
+    for case in chosen:
+        if case in scenario.compensated:
+            learning = runs.get(first) or scenario.run_case(first)
+            learned = learned or learned_effects(learning.recording)
+            runs[case] = scenario.run_case(case, effects=learned)
+        else:
+            runs[case] = scenario.run_case(case)
     metrics = {case: tracking_metrics(run, scenario.reference, scenario.evaluate_from) for case, run in runs.items()}
-    return ScenarioResult(scenario, runs, metrics)
+    return ScenarioResult(scenario, runs, metrics, learned)
+
+
+def learned_effects(recording):
+    """The Coulomb friction and spring that `emla discrepancy` finds in `recording`, as the controller's
+    effects ({} when it finds neither)."""
+    from emla_identification.discrepancy import diagnose
+    final = diagnose(recording).final
+    effects = {}
+    for candidate, part in final.added_slices():
+        values = final.added[part]
+        if candidate.name == 'coulomb_friction':
+            effects['coulomb_force'] = max(float(values[0]), 0.0)
+        elif candidate.name == 'return_spring':
+            effects.update(spring_stiffness=float(values[0]), spring_center=float(candidate.center))
+    return effects
 
 
 def tracking_metrics(result, reference, start=0.0, end=None):
