@@ -89,8 +89,9 @@ def test_simulate_runs_the_model_and_its_effect_is_found_again(learned, tmp_path
     wanted = read(tmp / 'M.yaml')
     assert result['effects'][0]['parameters']['coulomb_force'] == pytest.approx(
         wanted.effects[0].values()['coulomb_force'], rel=0.05)
-    for name in NOMINAL:
-        assert result['parameters'][name] == pytest.approx(wanted.values()[name], rel=0.02), name
+    for name in NOMINAL:   # the damping, the weakest, within 5 %: the law now compensates the friction
+        assert result['parameters'][name] == pytest.approx(wanted.values()[name], rel=0.05 if name == 'damping'
+                                                           else 0.02), name
 
 
 def test_launch_gives_the_plant_node_the_models_effects(learned):
@@ -99,6 +100,8 @@ def test_launch_gives_the_plant_node_the_models_effects(learned):
     plant = scenario_parameters(scenario)['plant']
     assert plant['effects'] == ['coulomb_friction'] and plant['resistance'] == read(tmp / 'M.yaml').values()['resistance']
     assert any(p.startswith('coulomb_friction.force=') for p in plant['effect_parameters'])
+    controller = scenario_parameters(scenario)['controller']    # and the controller compensates it
+    assert controller['coulomb_force'] == read(tmp / 'M.yaml').effects[0].values()['coulomb_force']
 
 
 @pytest.mark.parametrize('text, problem', [

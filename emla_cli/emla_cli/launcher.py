@@ -359,7 +359,8 @@ def scenario_parameters(scenario):
         'plant': plant,
         'sensor': {'seed': scenario.seed},
         'identifier': {'sample_period': scenario.sample_period, 'memory_time': scenario.memory_time},
-        'controller': {**actuator, 'sample_period': scenario.sample_period, 'adaptive': adaptive,
+        'controller': {**actuator, **scenario.controller_effects, 'sample_period': scenario.sample_period,
+                       'adaptive': adaptive,
                        'stroke': reference.stroke, 'reference_period': reference.period,
                        'transition': reference.transition},
     }

@@ -57,6 +57,7 @@ class Scenario:
     cases: dict = dataclasses.field(default_factory=lambda: dict(CASES))
     model_effects: tuple = ()  # Effect of the actuator itself (from a model file), in every case
     compensated: tuple = ()  # cases whose controller compensates the effects learned from the first case's record
+    controller_effects: dict = dataclasses.field(default_factory=dict)  # the model's, compensated in every case
 
     def plant(self, changed=True):
         return Plant(self.params, effects=self.model_effects + (self.effects if changed else ()),
@@ -64,14 +65,23 @@ class Scenario:
 
     def with_model(self, model, source='model file'):
         """This scenario on the actuator of a model file (emla_core.model_file): its nominal parameters (the
-        controller starts from them too) and its effects, simulated by the plant in every case."""
+        controller starts from them too) and its effects, simulated by the plant in every case; the controller
+        compensates the model's friction and spring."""
         from emla_sim.model_effects import plant_effects
         values = model.values()
         try:
             params = self.params.replace(**values)
         except ValueError as exc:
             raise InputError(f'{source}: {exc}') from None
-        return dataclasses.replace(self, params=params, model_effects=plant_effects(model, source))
+        compensated = {}
+        for effect in model.effects:
+            if effect.candidate == 'coulomb_friction':
+                compensated['coulomb_force'] = max(effect.values()['coulomb_force'], 0.0)
+            elif effect.candidate == 'return_spring':
+                compensated.update(spring_stiffness=effect.values()['spring_stiffness'],
+                                   spring_center=float(effect.settings.get('center') or 0.0))
+        return dataclasses.replace(self, params=params, model_effects=plant_effects(model, source),
+                                   controller_effects=compensated)
 
     def sensor(self):
         return Sensor(SensorConfig(sample_period=self.sample_period, seed=self.seed))
@@ -96,7 +106,8 @@ class Scenario:
         identifier and the adaptation every `frame_samples` samples (default: the scenario's), the controller
         compensating `effects` (InverseSystemController's) if given."""
         changed, adapt = self.cases[case]
-        return run_closed_loop(self.plant(changed), self.controller(effects), self.reference,
+        return run_closed_loop(self.plant(changed), self.controller(effects or self.controller_effects or None),
+                               self.reference,
                                self.duration if duration is None else duration, sensor=self.sensor(),
                                identifier=self.identifier() if adapt else None, adapt=adapt,
                                frame_samples=frame_samples or self.frame_samples)

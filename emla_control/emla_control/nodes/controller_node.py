@@ -42,6 +42,9 @@ SPECS = [
     common.Spec('max_jump', law.DEFAULT_MAX_JUMP, 'reject estimates moving R, L, Km or m by more than this factor, 1',
                 1.001, 1e3),
     *common.actuator_specs('initial model'),
+    common.Spec('coulomb_force', 0.0, "the model's Coulomb friction, compensated by the law (0 = none), N", 0.0, 1e4),
+    common.Spec('spring_stiffness', 0.0, "the model's spring k (x - x0), either sign (0 = none), N/m", -1e7, 1e7),
+    common.Spec('spring_center', 0.0, "the model's spring rest position x0, m", -1.0, 1.0),
 ]
 
 
@@ -58,7 +61,8 @@ class ControllerNode(common.EmlaNode):
         self.controller = law.InverseSystemController(
             model, bandwidth=p.bandwidth, damping=p.damping_ratio, control_period=p.control_period,
             supply_voltage=model.supply_voltage, observer_bandwidth=p.observer_bandwidth,
-            min_samples=p.min_samples, max_jump=p.max_jump)
+            min_samples=p.min_samples, max_jump=p.max_jump,
+            effects={name: getattr(p, name) for name in law.EFFECTS})
         self.reference = StrokeReference(p.stroke, p.reference_period, p.transition)
         self.period_ns = self.samples_per_period * self.step_ns
         self.block = (None, None, None)  # (first period, references at the midpoints, reference samples)
