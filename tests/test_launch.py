@@ -80,8 +80,9 @@ def runs(tmp_path_factory):
 
 def test_summary_names_the_processes_and_leaves_nothing_behind(runs):
     summary = runs['summaries'][0]
-    assert set(summary) == {'scenario', 'duration', 'wall_time', 'realtime_factor', 'final_parameters',
-                            'true_parameters', 'bag', 'nodes'}
+    assert set(summary) == {'scenario', 'duration', 'wall_time', 'realtime_factor', 'cpu_per_simulated_second',
+                            'final_parameters', 'true_parameters', 'bag', 'nodes'}
+    assert 0 < summary['cpu_per_simulated_second'] < 100        # all processes' CPU s per simulated s
     assert summary['scenario'] == 'default' and summary['duration'] == DURATION
     assert summary['realtime_factor'] > 0 and summary['wall_time'] > DURATION / summary['realtime_factor'] - 1
     names = [n['name'] for n in summary['nodes']]
