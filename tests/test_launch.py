@@ -82,7 +82,9 @@ def test_summary_names_the_processes_and_leaves_nothing_behind(runs):
     summary = runs['summaries'][0]
     assert set(summary) == {'scenario', 'duration', 'wall_time', 'realtime_factor', 'cpu_per_simulated_second',
                             'final_parameters', 'true_parameters', 'bag', 'nodes'}
-    assert 0 < summary['cpu_per_simulated_second'] < 100        # all processes' CPU s per simulated s
+    cpu = summary['cpu_per_simulated_second']                    # CPU s per simulated s, per process and total
+    assert set(cpu) == {'controller', 'identifier', 'plant', 'recorder', 'sensor', 'launcher', 'total'}
+    assert cpu['total'] == pytest.approx(sum(v for k, v in cpu.items() if k != 'total'), abs=0.01)
     assert summary['scenario'] == 'default' and summary['duration'] == DURATION
     assert summary['realtime_factor'] > 0 and summary['wall_time'] > DURATION / summary['realtime_factor'] - 1
     names = [n['name'] for n in summary['nodes']]
