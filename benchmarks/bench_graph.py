@@ -1,6 +1,8 @@
-"""The launched ROS 2 graph: real-time factor of `emla launch` at 10 kHz sampling, and the identifier node's
-CPU use when a recorded 10 kHz run is played into it at real time."""
+"""The launched ROS 2 graph: real-time factor of `emla launch` at 10 kHz sampling and the CPU time all its
+processes spend per simulated second (medians over LAUNCHES launches, start-up excluded: see `emla launch`), and
+the identifier node's CPU use when a recorded 10 kHz run is played into it at real time."""
 import json
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -10,29 +12,33 @@ from pathlib import Path
 import yaml
 
 from benchmarks.harness import Row
-from emla_cli.launcher import domain_env, reserved_domain
+from emla_cli.launcher import cpu_seconds, domain_env, reserved_domain
 
 EMLA = str(Path(sys.executable).parent / 'emla')
-DURATION = 2.0    # s simulated in the launch
+DURATION = 2.0    # s simulated in each launch
+LAUNCHES = 3      # the machine's speed wanders from run to run: the median of these, with the spread
 PLAYED = 5.0      # s of recording played into the identifier
 
 
-def cpu_seconds(pid):
-    """User + system CPU time of a process so far (Linux /proc)."""
-    fields = Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
-    ticks = int(fields[11]) + int(fields[12])
-    return ticks / __import__('os').sysconf('SC_CLK_TCK')
-
-
 def launch_rows(work):
-    summary = work / 'launch.json'
-    subprocess.run([EMLA, 'launch', 'default', '--duration', str(DURATION), '--bag', str(work / 'launch'),
-                    '--json', str(summary)], check=True, capture_output=True, timeout=600)
-    result = json.loads(summary.read_text())
-    rtf = result['realtime_factor']
-    return [Row('ROS graph, emla launch (4 nodes + recorder), 10 kHz, 1 ms control period', rtf, 'x real time',
-                target='>= 1x', met=rtf >= 1,
-                note=f'{DURATION:g} s simulated, {result["wall_time"]:.1f} s wall with start-up and stop')]
+    runs = []
+    for k in range(LAUNCHES):
+        summary = work / f'launch{k}.json'
+        subprocess.run([EMLA, 'launch', 'default', '--duration', str(DURATION), '--bag', str(work / f'launch{k}'),
+                        '--json', str(summary)], check=True, capture_output=True, timeout=600)
+        runs.append(json.loads(summary.read_text()))
+    rtf = [run['realtime_factor'] for run in runs]
+    cpu = [run['cpu_per_simulated_second'] for run in runs]
+    total = [c['total'] for c in cpu]
+    processes = ', '.join(f'{name} {statistics.median(c[name] for c in cpu):.2f}' for name in cpu[0] if name != 'total')
+    graph = 'ROS graph, emla launch (4 nodes + recorder), 10 kHz, 1 ms control period'
+    return [Row(f'{graph}: real-time factor', statistics.median(rtf), 'x real time', target='>= 1x',
+                met=statistics.median(rtf) >= 1,
+                note=f'median of {LAUNCHES} launches of {DURATION:g} s simulated, {min(rtf):.2f}-{max(rtf):.2f}x; '
+                     f'{statistics.median(run["wall_time"] for run in runs):.1f} s wall with start-up and stop'),
+            Row(f'{graph}: CPU time of all its processes', statistics.median(total), 's per simulated s',
+                target='<= 1.5', met=statistics.median(total) <= 1.5,
+                note=f'{min(total):.2f}-{max(total):.2f} over the launches; median per process: {processes}')]
 
 
 def identifier_rows(work):

@@ -10,7 +10,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 
 from emla_core import messages, topics
 from emla_core.nodes import common
-from emla_msgs.msg import ParameterEstimate, SampleFrame
+from emla_msgs.msg import ParameterEstimate, SampleFrame, SignalFrames
 from emla_sim.datasets import closed_loop
 from ros_isolation import processes
 from test_nodes import EMLA, MS, SAMPLES, params_file, ros_node, spin_until
@@ -61,23 +61,32 @@ def graph_frames(signals, periods, names=('voltage', 'current', 'position'), fau
     return frames
 
 
+def plant_messages(frames):
+    """graph_frames of the three signals as the plant sends them to its sensor: per period one SignalFrames on
+    /emla/plant/frames (the first, the state at t = 0, with an empty voltage frame); (topic, message) pairs."""
+    groups = [[('voltage', 0, TS, []), *frames[:2]]] + [frames[i:i + 3] for i in range(2, len(frames), 3)]
+    return [('plant/frames', SignalFrames(**{name: messages.frame_message(stamp, period, samples)
+                                             for name, stamp, period, samples in group})) for group in groups]
+
+
 def run_node(tmp_path, name, frames, outputs, finished, end=None, **params):
-    """Run node `name` (its package's parameters but `params`) on `frames` (graph_frames; each name a measured
-    topic, or a plant one with a 'plant/' prefix), published once it subscribed to them, then /emla/plant/done =
-    `end`; spin until finished(received): received = {topic: [messages]} of `outputs` {topic: message type}
+    """Run node `name` (its package's parameters but `params`) on `frames` (graph_frames, each name a measured
+    topic; or (topic under /emla/, message) pairs), published once it subscribed to them, then /emla/plant/done
+    = `end`; spin until finished(received): received = {topic: [messages]} of `outputs` {topic: message type}
     and /diagnostics. The node must still run then, and exit 0 on SIGTERM. Returns (received, its stderr)."""
     outputs = {**outputs, topics.DIAGNOSTICS_TOPIC: DiagnosticArray}
     received = {topic: [] for topic in outputs}
+    messages_out = [(f[0], f[1] if len(f) == 2 else messages.frame_message(*f[1:])) for f in frames]
     with ros_node() as (node, executor), processes() as start:
         for topic, msgtype in outputs.items():
             node.create_subscription(msgtype, topic, received[topic].append, 1000)
-        publishers = {f[0]: node.create_publisher(SampleFrame, topics.NAMESPACE + f[0], common.FRAME_QOS)
-                      for f in frames}
+        publishers = {topic: node.create_publisher(type(msg), topics.NAMESPACE + topic, common.FRAME_QOS)
+                      for topic, msg in messages_out}
         done = node.create_publisher(Time, topics.DONE_TOPIC, common.LATCHED_QOS)
         proc = start([EMLA, 'run', name, '--params-file', params_file(tmp_path, name, **params)])
         spin_until(executor, lambda: all(p.get_subscription_count() for p in publishers.values()), 60, [proc])
-        for signal_name, stamp, sample_period, samples in frames:
-            publishers[signal_name].publish(messages.frame_message(stamp, sample_period, samples))
+        for topic, msg in messages_out:
+            publishers[topic].publish(msg)
             executor.spin_once(timeout_sec=0)
         if end is not None:
             done.publish(messages.time_msg(end))
@@ -134,22 +143,22 @@ def test_the_controller_holds_its_voltage_over_a_period_without_a_usable_state(t
     commands = topics.COMMAND_TOPIC
 
     def all_commanded(received):
-        return len(received[commands]) == periods and reported_all(received, 'controller', KINDS)
+        return len(received[commands]) == periods + 1 and reported_all(received, 'controller', KINDS)
 
     received, _ = run_node(tmp_path, 'controller', frames, {commands: SampleFrame}, all_commanded, adaptive=False)
     voltage = {topics.stamp_to_ns(msg.header.stamp): messages.frame_data(msg)[0] for msg in received[commands]}
-    # a command for each period; none for the one whose state frame was lost (the set never completed)
-    assert sorted(voltage) == [k * MS for k in range(periods + 1) if k != 21]
+    # a command for each period, the one after each state (its computational delay) and the first two from the
+    # state at t = 0; none for the one after the state whose frame was lost (the set never completed)
+    assert sorted(voltage) == [k * MS for k in range(periods + 2) if k != 22]
     assert all(np.isfinite(list(voltage.values())))
-    for held in (6, 11, 16):  # the periods the bad frames of periods 5, 10 and 15 end on
+    for held in (7, 12, 17):  # the periods after those the bad frames of periods 5, 10 and 15 end on
         assert voltage[held * MS] == voltage[(held - 1) * MS]
-    assert voltage[7 * MS] != voltage[6 * MS]  # controlling again
+    assert voltage[8 * MS] != voltage[7 * MS]  # controlling again
 
 
 def test_the_sensor_publishes_empty_frames_for_unusable_plant_frames_and_carries_on(tmp_path, signals):
     periods = 20
-    frames = [(f'plant/{name}', *rest) for name, *rest in
-              graph_frames(signals, periods, ('current', 'position'), {(8, 'position'): 'empty'})]
+    frames = plant_messages(graph_frames(signals, periods, faults={(8, 'position'): 'empty'}))
     measured = topics.MEASURED_TOPICS['position']
 
     def all_measured(received):

@@ -20,6 +20,7 @@ from . import inverse
 DEFAULT_BANDWIDTH = 300.0  # Hz
 DEFAULT_DAMPING = 1.0
 DEFAULT_OBSERVER_BANDWIDTH = 1000.0  # Hz
+PREDICTION_STEP = 1e-4  # s: the largest RK4 step of step_ahead's prediction (a quarter of L/R of Table 1)
 # Guard on identified parameters: the identifier's start-up transient (samples), and the largest factor by
 # which R, L, Km or m may move in one update (a drift or even a +50 % step arrives over many updates).
 DEFAULT_MIN_SAMPLES = 1000  # 0.1 s at 10 kHz
@@ -61,6 +62,8 @@ class InverseSystemController:
         self.set_effects(effects or {})
         self._set_parameters(params.physical())
         self._z = np.zeros(2)
+        self._held = 0.0  # step_ahead: the voltage over the coming interval
+        self._prediction_steps = math.ceil(self.control_period / PREDICTION_STEP - 1e-9)
         self.accepted = 0
         self.rejections = collections.Counter()  # reason -> count
 
@@ -84,8 +87,9 @@ class InverseSystemController:
         return sum(self.rejections.values())
 
     def reset(self, position=0.0):
-        """Start the observer at rest at `position`."""
+        """Start the observer at rest at `position` (and step_ahead with 0 V held)."""
         self._z[:] = (position, 0.0)
+        self._held = 0.0
 
     def midpoint_times(self, times):
         """Where to evaluate the reference for control intervals starting at `times`."""
@@ -95,6 +99,26 @@ class InverseSystemController:
         """The voltage for the coming interval; reference = (s, s', s'', s''') at its midpoint."""
         r0, r1, r2, r3 = reference
         return inverse.control_step(self._z, self._c, r0, r1, r2, r3, current, position)
+
+    def start_ahead(self, current, position, reference):
+        """Start a run of step_ahead at its first sample: reset there, and return the voltage for the interval
+        that sample starts, the law's without delay (as if computed before the run); step_ahead then goes on
+        from the same sample. reference = (s, s', s'', s''') at that interval's midpoint."""
+        self.reset(position)
+        r0, r1, r2, r3 = reference
+        self._held = inverse.law_voltage(self._z, self._c, r0, r1, r2, r3, current, position)
+        return self._held
+
+    def step_ahead(self, current, position, reference):
+        """The voltage for the interval after the coming one, from the sample at the coming one's start: one
+        control period of computational delay, as a controller has that computes while the plant runs. The
+        coming interval's voltage is the one step_ahead returned last (0 V after reset); the state at its end
+        is predicted from the model (RK4 in steps of at most PREDICTION_STEP), so the delay costs little
+        tracking. reference = (s, s', s'', s''') at the midpoint of the interval after the coming one."""
+        r0, r1, r2, r3 = reference
+        self._held = inverse.delayed_control_step(self._z, self._c, r0, r1, r2, r3, current, position, self._held,
+                                                  self._prediction_steps)
+        return self._held
 
     def update_parameters(self, estimate, samples=None):
         """Take identified parameters (a mapping with some of PARAMETER_NAMES) unless implausible.

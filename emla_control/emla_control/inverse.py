@@ -82,12 +82,17 @@ def effect_force(c, position, velocity):
 
 
 @numba.njit(cache=True)
-def control_step(state, c, r0, r1, r2, r3, current, position):
-    """One control interval: correct the observer with the measurement, return the (limited) voltage, and
-    predict the state for the next sample. r0..r3 = reference s, s', s'', s''' at the interval midpoint."""
+def _corrected(state, c, position):
+    """The observer's position and velocity corrected with a measured position."""
     e = position - state[X_HAT]
-    x = state[X_HAT] + c[L1] * e
-    v = state[V_HAT] + c[L2] * e
+    return state[X_HAT] + c[L1] * e, state[V_HAT] + c[L2] * e
+
+
+@numba.njit(cache=True)
+def _law(c, r0, r1, r2, r3, current, x, v):
+    """(limited voltage, acceleration, jerk) of the interval starting at the state (current, x, v): the voltage,
+    the acceleration at the start and the jerk the limited voltage gives. r0..r3 = reference s, s', s'', s'''
+    at the interval midpoint."""
     a = (c[KM] * current - c[B] * v - c[FL] - effect_force(c, x, v)) / c[M]
     h = 0.5 * c[TS]
     w = (r3 + c[K2] * (r2 - a) + c[K1] * (r1 - v - h * a) + c[K0] * (r0 - x - h * v - 0.5 * h * h * a)) \
@@ -99,11 +104,59 @@ def control_step(state, c, r0, r1, r2, r3, current, position):
     limited = min(max(u, -c[SUPPLY]), c[SUPPLY])
     # The jerk the limited voltage really gives (u is affine in w), so saturation cannot wind the observer up.
     du_dw = (c[M] * c[L] + h * (c[M] * c[R] + c[B] * c[L]) + 0.5 * h * h * (c[B] * c[R] + c[KM] ** 2)) / c[KM]
-    w += (limited - u) / du_dw
+    return limited, a, w + (limited - u) / du_dw
+
+
+@numba.njit(cache=True)
+def control_step(state, c, r0, r1, r2, r3, current, position):
+    """One control interval: correct the observer with the measurement, return the (limited) voltage, and
+    predict the state for the next sample. r0..r3 = reference s, s', s'', s''' at the interval midpoint."""
+    x, v = _corrected(state, c, position)
+    limited, a, w = _law(c, r0, r1, r2, r3, current, x, v)
     ts = c[TS]
     state[X_HAT] = x + ts * v + 0.5 * ts * ts * a + ts * ts * ts * w / 6.0
     state[V_HAT] = v + ts * a + 0.5 * ts * ts * w
     return limited
+
+
+@numba.njit(cache=True)
+def law_voltage(state, c, r0, r1, r2, r3, current, position):
+    """The (limited) voltage of control_step, the observer left as it is."""
+    x, v = _corrected(state, c, position)
+    return _law(c, r0, r1, r2, r3, current, x, v)[0]
+
+
+@numba.njit(cache=True)
+def _derivatives(c, current, x, v, voltage):
+    """(I', x', v') of the model: L I' = u - R I - Km v, x' = v, m v' = Km I - B v - Fl - F_e(x, v)."""
+    return ((voltage - c[R] * current - c[KM] * v) / c[L], v,
+            (c[KM] * current - c[B] * v - c[FL] - effect_force(c, x, v)) / c[M])
+
+
+@numba.njit(cache=True)
+def predict(c, current, x, v, voltage, duration, steps):
+    """The model's (current, position, velocity) `duration` s on under a constant `voltage` (RK4, `steps` steps)."""
+    h = duration / steps
+    for _ in range(steps):
+        k1 = _derivatives(c, current, x, v, voltage)
+        k2 = _derivatives(c, current + 0.5 * h * k1[0], x + 0.5 * h * k1[1], v + 0.5 * h * k1[2], voltage)
+        k3 = _derivatives(c, current + 0.5 * h * k2[0], x + 0.5 * h * k2[1], v + 0.5 * h * k2[2], voltage)
+        k4 = _derivatives(c, current + h * k3[0], x + h * k3[1], v + h * k3[2], voltage)
+        current += h * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]) / 6.0
+        x += h * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]) / 6.0
+        v += h * (k1[2] + 2.0 * k2[2] + 2.0 * k3[2] + k4[2]) / 6.0
+    return current, x, v
+
+
+@numba.njit(cache=True)
+def delayed_control_step(state, c, r0, r1, r2, r3, current, position, held, steps):
+    """One control interval ahead: correct the observer with the measurement at t, predict the state at t + Ts
+    from the model under `held` (the voltage over [t, t + Ts), decided an interval earlier; RK4 in `steps`
+    steps), and return the (limited) voltage for [t + Ts, t + 2 Ts) from that state; r0..r3 = the reference at
+    that interval's midpoint. The prediction is the observer's prior for the next measurement."""
+    x, v = _corrected(state, c, position)
+    current, state[X_HAT], state[V_HAT] = predict(c, current, x, v, held, c[TS], steps)
+    return _law(c, r0, r1, r2, r3, current, state[X_HAT], state[V_HAT])[0]
 
 
 def open_loop_voltage(params, reference, times, sample_period):

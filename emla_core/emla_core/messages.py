@@ -6,11 +6,13 @@ The readers take either an rclpy message or a rosbags one (a bag read back): bot
 """
 import array
 import importlib
+import struct
 
 import numpy as np
 from builtin_interfaces.msg import Time
 
 from emla_core.parameters import PARAMETER_NAMES
+from emla_core.topics import SIGNALS
 from emla_msgs.msg import ArxModel, ParameterEstimate, SampleFrame
 
 
@@ -48,6 +50,68 @@ def frame_message(stamp, sample_period, data, frame_id=''):
 def frame_data(msg):
     """The samples of a SampleFrame as a read-only float64 array over the message's buffer."""
     return np.frombuffer(msg.data, dtype=np.float64)
+
+
+# Serialised messages (CDR, XCDR1) built and read without rclpy message objects: a node publishes the bytes (a
+# publisher takes them) and subscribes raw, for a few us per message where building or converting an rclpy
+# message costs some 15 us. The bytes are rclpy's but for the padding, zeros here. After the encapsulation
+# (little endian), a SampleFrame with an empty frame_id is: stamp sec and nanosec, frame_id (length 1: its NUL),
+# padding to 8, sample_period, data length, and if there are data, padding to 8 and the data. CDR aligns from
+# the start of the body (after the encapsulation), so a frame inside a SignalFrames pads as its place needs.
+_LITTLE_ENDIAN = b'\x00\x01\x00\x00'
+_FRAME_STAMP = struct.Struct('<iII')
+_FRAME_PERIOD = struct.Struct('<dI')
+
+
+def _frame_body(stamp, sample_period, data, at):
+    """A SampleFrame (empty frame_id) serialised from body offset `at` (a multiple of 4)."""
+    data = np.ascontiguousarray(data, dtype='<f8')
+    head = _FRAME_STAMP.pack(stamp // 1_000_000_000, stamp % 1_000_000_000, 1) + bytes(4 if at % 8 == 0 else 8) \
+        + _FRAME_PERIOD.pack(sample_period, len(data))
+    return head + bytes(4) + data.tobytes() if len(data) else head
+
+
+def _read_frame_body(cdr, at, order):
+    """((stamp ns, sample period s, samples), end) of the SampleFrame serialised from byte `at` of `cdr`."""
+    sec, nanosec, id_length = struct.unpack_from(order + 'iII', cdr, at)
+    period_at = 4 + (at + 8 + id_length + 7) // 8 * 8  # 8-aligned in the body, which starts at byte 4
+    sample_period, length = struct.unpack_from(order + 'dI', cdr, period_at)
+    if not length:
+        return (sec * 1_000_000_000 + nanosec, sample_period, np.empty(0)), period_at + 12
+    samples = np.frombuffer(cdr, dtype=order + 'f8', count=length, offset=period_at + 16)
+    return (sec * 1_000_000_000 + nanosec, sample_period, samples), period_at + 16 + 8 * length
+
+
+def frame_cdr(stamp, sample_period, data):
+    """The CDR bytes of frame_message(stamp, sample_period, data); an empty one padded to 36 bytes as rclpy pads
+    it (a bag's reader may expect that)."""
+    body = _frame_body(stamp, sample_period, data, 0)
+    return _LITTLE_ENDIAN + (body if len(body) % 8 == 0 else body + bytes(4))
+
+
+def read_frame_cdr(cdr):
+    """(stamp ns, sample period s, samples) of a serialised SampleFrame (a raw subscription's bytes), the samples
+    a read-only float64 array over `cdr`; any frame_id and byte order. struct.error if it is too short."""
+    return _read_frame_body(cdr, 4, '<' if cdr[1] == 1 else '>')[0]
+
+
+# ---- emla_msgs/SignalFrames ----
+
+def signal_frames_cdr(sample_period, frames):
+    """The CDR bytes of a SignalFrames of frames {signal: (stamp ns, data)} of every signal in SIGNALS."""
+    body = b''
+    for name in SIGNALS:
+        stamp, data = frames[name]
+        body += _frame_body(stamp, sample_period, data, len(body))
+    return _LITTLE_ENDIAN + body
+
+
+def read_signal_frames_cdr(cdr):
+    """{signal: (stamp ns, sample period s, samples)} of a serialised SignalFrames (as read_frame_cdr)."""
+    order, at, frames = '<' if cdr[1] == 1 else '>', 4, {}
+    for name in SIGNALS:
+        frames[name], at = _read_frame_body(cdr, at, order)
+    return frames
 
 
 # ---- emla_msgs/ParameterEstimate ----

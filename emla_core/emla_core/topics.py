@@ -12,6 +12,7 @@ SIGNALS = ('voltage', 'current', 'position')   # the signals of the graph's fram
 SAMPLE_FRAME = 'emla_msgs/msg/SampleFrame'
 PARAMETER_ESTIMATE = 'emla_msgs/msg/ParameterEstimate'
 ARX_MODEL = 'emla_msgs/msg/ArxModel'
+SIGNAL_FRAMES = 'emla_msgs/msg/SignalFrames'
 TIME = 'builtin_interfaces/msg/Time'
 
 
@@ -20,7 +21,8 @@ def signal_topic(name):
     return NAMESPACE + name
 
 
-PLANT_TOPICS = {name: f'{NAMESPACE}plant/{name}' for name in SIGNALS}      # true values (plant)
+PLANT_TOPICS = {name: f'{NAMESPACE}plant/{name}' for name in SIGNALS}      # true values (plant), recorded
+PLANT_FRAMES_TOPIC = f'{NAMESPACE}plant/frames'                           # the same per period in one message (sensor)
 MEASURED_TOPICS = {name: signal_topic(name) for name in SIGNALS}          # sampled values (sensor)
 COMMAND_TOPIC = signal_topic('voltage_command')                           # controller -> plant
 REFERENCE_TOPIC = signal_topic('reference')                               # the position the controller tracks
@@ -33,7 +35,8 @@ CLOCK_TOPIC = '/clock'
 DIAGNOSTICS_TOPIC = '/diagnostics'
 
 # The graph's rhythm (the nodes' defaults; `emla simulate` writes its bags in the same frames): one
-# SampleFrame per signal per control period, one parameter estimate per estimate period.
+# SampleFrame per signal per control period, one parameter estimate per estimate period; the plant's true
+# frames, which only a recorder reads, one per estimate period.
 CONTROL_PERIOD = 1e-3   # s
 ESTIMATE_PERIOD = 0.01  # s
 
@@ -61,8 +64,9 @@ RECORDED = {
     DONE_TOPIC: (TIME, 'latched'),
 }
 # The suite's topics a run does not record, as above: the identifier's in ARX mode (a run's identifier is a
-# grey-box one, for the controller; the recorder's start barrier waits for a publisher of each recorded topic).
-UNRECORDED = {ARX_MODEL_TOPIC: (ARX_MODEL, 'latched')}
+# grey-box one, for the controller; the recorder's start barrier waits for a publisher of each recorded topic)
+# and the plant's frames for its sensor (recorded as PLANT_TOPICS).
+UNRECORDED = {ARX_MODEL_TOPIC: (ARX_MODEL, 'latched'), PLANT_FRAMES_TOPIC: (SIGNAL_FRAMES, 'frame')}
 
 
 def qos_kind(topic, msgtype):

@@ -3,7 +3,10 @@
 The graph runs in its own ROS domain (this host only) in simulated time until the plant has run --duration
 and the identifier has published its final estimate; then every process is stopped. Progress (simulated
 time) goes to stderr, the summary JSON to --json or stdout. realtime_factor is simulated time over the wall
-time between the plant's first and last step; wall_time is the whole launch, start-up and stop included.
+time from the plant's first 10 ms (its first true-parameter tick after the start: the run's first frames pay
+for the start-up of the connections) to its last step; cpu_per_simulated_second is the CPU time each process
+(and all together, 'total') spent over the same span per simulated second; wall_time is the whole launch,
+start-up and stop included.
 """
 import signal
 import sys

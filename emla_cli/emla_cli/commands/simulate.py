@@ -3,11 +3,12 @@ messages as one that `emla launch` records of the same scenario.
 
 The run is the scenario's adaptive case (the one `emla launch` runs), with the identifier's estimate and
 the controller's adaptation every 10 ms as in the graph. The bag holds, like the graph's: one SampleFrame per
-signal per 1 ms control period (the plant's true and the sensor's measured voltage, current and position,
-the voltage command and the reference), the parameter estimates with their full covariance and the plant's
-true parameters every 10 ms, and the end time on /emla/plant/done. So `emla play` can feed it to a live
-identifier, and `emla identify` re-identifies it. The controller runs once a sample here (every 1 ms in the
-graph), so the two bags have the same layout, not the same samples.
+signal per 1 ms control period (the sensor's measured voltage, current and position, the voltage command),
+the reference and the plant's true voltage, current and position in frames of 10 ms, the parameter estimates
+with their full covariance and the plant's true parameters every 10 ms, and the end time on
+/emla/plant/done. So `emla play` can feed it to a live identifier, and `emla identify` re-identifies it.
+The controller runs once a sample here (every 1 ms in the graph), so the two bags have the same layout, not
+the same samples.
 """
 import sys
 import time
@@ -64,23 +65,23 @@ def write_bag(result, path, scenario):
     recording = result.recording
     period, start = recording.sample_period, topics.to_ns(recording.start_time)
     step = topics.to_ns(period)
-    n = round(topics.CONTROL_PERIOD / period)
+    n, n_true = round(topics.CONTROL_PERIOD / period), round(topics.ESTIMATE_PERIOD / period)
     end = start + (len(recording) - 1) * step
-    signals = {**{topics.MEASURED_TOPICS[name]: (recording.signals[name], name != 'voltage')
+    signals = {**{topics.MEASURED_TOPICS[name]: (recording.signals[name], name != 'voltage', n)
                   for name in topics.SIGNALS},
-               topics.PLANT_TOPICS['voltage']: (recording.signals['voltage'], False),
-               topics.PLANT_TOPICS['current']: (result.truth['current'], True),
-               topics.PLANT_TOPICS['position']: (result.truth['position'], True),
-               topics.COMMAND_TOPIC: (recording.signals['voltage'], False),
-               topics.REFERENCE_TOPIC: (recording.signals['reference'], False)}
+               topics.PLANT_TOPICS['voltage']: (recording.signals['voltage'], False, n_true),
+               topics.PLANT_TOPICS['current']: (result.truth['current'], True, n_true),
+               topics.PLANT_TOPICS['position']: (result.truth['position'], True, n_true),
+               topics.COMMAND_TOPIC: (recording.signals['voltage'], False, n),
+               topics.REFERENCE_TOPIC: (recording.signals['reference'], False, n_true)}
     logged = [(f, topics.to_ns(t)) for f, t in enumerate(result.frame_times) if topics.to_ns(t) <= end]
     truth = {name: float(values[logged[-1][0]]) for name, values in result.true_parameters.items()}
     zero = dict.fromkeys(PARAMETER_NAMES, 0.0)
     with BagWriter(path, custom_data={'scenario': scenario, **{f'true_{k}': repr(v) for k, v in truth.items()}}) as bag:
         for topic, (msgtype, _) in topics.RECORDED.items():
             bag.add_topic(topic, msgtype)
-        for topic, (values, state) in signals.items():
-            for first, data in frames(values, n, state):
+        for topic, (values, state, samples) in signals.items():
+            for first, data in frames(values, samples, state):
                 bag.write_message(topic, start + first * step, frame_message(start + first * step, period, data))
         bag.write_message(topics.TRUE_PARAMETERS_TOPIC, start, estimate_message(
             start, {k: v[0] for k, v in result.true_parameters.items()}, zero))

@@ -1,15 +1,23 @@
 """The controller node: the adaptive inverse-system controller (emla_control.controller) in the lockstep.
 
 From the last sample of each measured state frame (time t) it computes the voltage held over the control
-period starting at t and publishes it (stamp t) with the stroke reference it tracks there. Adaptive: at each
-t that is a positive multiple of `adaptation_period` it first waits for the estimate stamped t (see
-emla_core.nodes.common) and offers it to the controller's guard. Without a usable state for t (a bad frame,
-reported: see common) it holds the last voltage over that period, still published so the lockstep goes on.
+period starting at t + Tc and publishes it (stamp t + Tc): one period of computational delay, so that it
+computes while the plant runs the period from t (whose voltage it published a period earlier); the law
+predicts the state at t + Tc from its model (InverseSystemController.step_ahead). From its first state
+(t = 0) it also commands the period starting there, with the law's voltage without delay. The stroke reference
+it tracks goes out ahead, in frames of REFERENCE_FRAME periods. Adaptive: at each t that is a multiple of
+`adaptation_period` (from the second on) it first waits for the estimate stamped one adaptation period
+earlier (see emla_core.nodes.common) and offers it to the controller's guard. Without a usable state for t (a
+bad frame, reported: see common) it holds the last voltage over the period from t + Tc, still published so
+the lockstep goes on.
 """
+import collections
+import copy
 import math
 import sys
 
 import numpy as np
+from rclpy.qos import QoSProfile
 
 from emla_control import controller as law
 from emla_control.reference import StrokeReference
@@ -19,6 +27,12 @@ from emla_core.parameters import ActuatorParameters
 from emla_msgs.msg import ParameterEstimate
 
 BLOCK = 100  # control periods of reference evaluated at once
+# Control periods per /emla/reference frame: only a recorder reads them, and fewer, longer frames cost it less.
+REFERENCE_FRAME = 10
+# The estimates as they are published (LATCHED), but keeping several: each is taken an adaptation period after
+# its stamp, and the next one may have come by then.
+ESTIMATE_QOS = QoSProfile(depth=10, reliability=common.LATCHED_QOS.reliability,
+                          durability=common.LATCHED_QOS.durability)
 # Closed-loop bandwidth for the default 1 ms control period, where it tracks best (12 um RMS on the default
 # stroke in simulation); the library's default suits 10 kHz control and saturates the voltage at 1 kHz.
 BANDWIDTH = 150.0  # Hz
@@ -48,6 +62,15 @@ SPECS = [
 ]
 
 
+def warm_up(controller):
+    """Run the compiled law once on a copy of `controller` (compiling it takes about 0.5 s the first time after an
+    install), before the node subscribes: the plant starts only then, and a first command that late would
+    stall the loop."""
+    trial = copy.deepcopy(controller)
+    trial.start_ahead(0.0, 0.0, (0.0,) * 4)
+    trial.step_ahead(0.0, 0.0, (0.0,) * 4)
+
+
 class ControllerNode(common.EmlaNode):
     NAME = 'controller'
 
@@ -63,27 +86,31 @@ class ControllerNode(common.EmlaNode):
             supply_voltage=model.supply_voltage, observer_bandwidth=p.observer_bandwidth,
             min_samples=p.min_samples, max_jump=p.max_jump,
             effects={name: getattr(p, name) for name in law.EFFECTS})
+        warm_up(self.controller)
         self.reference = StrokeReference(p.stroke, p.reference_period, p.transition)
         self.period_ns = self.samples_per_period * self.step_ns
         self.block = (None, None, None)  # (first period, references at the midpoints, reference samples)
         self.adaptation_ns = topics.to_ns(p.adaptation_period) if p.adaptive else None
-        self.state = None  # (t_ns, current, position): the latest measured sample (NaN: none), not yet acted on
+        # (t_ns, current, position) of the measured samples not acted on yet (NaN: none), in time order: the plant
+        # runs a period ahead, so a second may come while the first waits for its estimate
+        self.samples = collections.deque()
         self.voltage = 0.0  # the latest command
         self.estimates = {}  # stamp -> ParameterEstimate
-        self.started = False
+        self.started = False  # the law has had a usable sample
+        self.commanded = False
         self.command = common.frame_publishers(self, {'voltage': topics.COMMAND_TOPIC,
                                                       'reference': topics.REFERENCE_TOPIC})
         self.states = common.FrameSets(self, {name: topics.MEASURED_TOPICS[name] for name in ('current', 'position')},
                                        self.on_states, common.Faults(self), p.sample_period)
         if p.adaptive:
-            self.create_subscription(ParameterEstimate, topics.PARAMETERS_TOPIC, self.on_estimate, common.LATCHED_QOS)
+            self.create_subscription(ParameterEstimate, topics.PARAMETERS_TOPIC, self.on_estimate, ESTIMATE_QOS)
 
     def on_states(self, stamp, sample_period, frames):
         if frames is None:  # unusable: the state frame of a period ends on the first period start from its stamp
-            self.state = (-(-stamp // self.period_ns) * self.period_ns, math.nan, math.nan)
+            self.samples.append((-(-stamp // self.period_ns) * self.period_ns, math.nan, math.nan))
         else:
             t = stamp + (len(frames['position']) - 1) * self.step_ns
-            self.state = (t, frames['current'][-1], frames['position'][-1])
+            self.samples.append((t, frames['current'][-1], frames['position'][-1]))
         self.act()
 
     def on_estimate(self, msg):
@@ -91,27 +118,45 @@ class ControllerNode(common.EmlaNode):
         self.act()
 
     def act(self):
-        if self.state is None:
-            return
-        t, current, position = self.state
-        measured = math.isfinite(current) and math.isfinite(position)
-        if measured and self.adaptation_ns and t > 0 and t % self.adaptation_ns == 0:
-            if t not in self.estimates:
-                return  # wait for the estimate due now
-            msg = self.estimates[t]
-            values = {k: v for k, v in messages.estimate_values(msg).items() if math.isfinite(v)}
-            self.controller.update_parameters(values, msg.samples_used)
-        self.estimates = {stamp: msg for stamp, msg in self.estimates.items() if stamp > t}
-        self.state = None
-        midpoint, samples = self.references(t // self.period_ns)
+        while self.samples:
+            t, current, position = self.samples[0]
+            measured = math.isfinite(current) and math.isfinite(position)
+            due = t - self.adaptation_ns if self.adaptation_ns else 0  # the stamp of the estimate taken at t, if any
+            if measured and due > 0 and due % self.adaptation_ns == 0:
+                if due not in self.estimates:
+                    return  # wait for it
+                msg = self.estimates[due]
+                values = {k: v for k, v in messages.estimate_values(msg).items() if math.isfinite(v)}
+                self.controller.update_parameters(values, msg.samples_used)
+            self.estimates = {stamp: msg for stamp, msg in self.estimates.items() if stamp > due}
+            self.samples.popleft()
+            self.control(t // self.period_ns, current, position, measured)
+
+    def control(self, period, current, position, measured):
+        """Command the period after `period` from the sample at its start (and `period` itself at the first)."""
+        if not self.commanded:  # the first state: the period it starts needs a command too (0 V if unusable)
+            if measured:
+                self.voltage = self.controller.start_ahead(current, position, self.references(period)[0])
+                self.started = True
+            self.publish(period)
         if measured:  # else the last voltage is held
             if not self.started:
-                self.controller.reset(position)
+                self.controller.reset(position)  # step_ahead from 0 V, all that was commanded before
                 self.started = True
-            self.voltage = self.controller.step(current, position, midpoint)
-        self.command['voltage'].publish(messages.frame_message(t, self.sample_period,
-                                                               np.full(self.samples_per_period, self.voltage)))
-        self.command['reference'].publish(messages.frame_message(t, self.sample_period, samples))
+            self.voltage = self.controller.step_ahead(current, position, self.references(period + 1)[0])
+        self.publish(period + 1)
+
+    def publish(self, period):
+        """The command (the latest voltage) for control period `period`; at the first and at multiples of
+        REFERENCE_FRAME, the reference it tracks up to the next multiple."""
+        t = period * self.period_ns
+        self.command['voltage'].publish(messages.frame_cdr(t, self.sample_period,
+                                                           np.full(self.samples_per_period, self.voltage)))
+        if not self.commanded or period % REFERENCE_FRAME == 0:
+            end = (period // REFERENCE_FRAME + 1) * REFERENCE_FRAME
+            samples = np.concatenate([self.references(k)[1] for k in range(period, end)])
+            self.command['reference'].publish(messages.frame_cdr(t, self.sample_period, samples))
+        self.commanded = True
 
     def references(self, period):
         """The reference (s, s', s'', s''') at the period's midpoint and its samples over the period.

@@ -57,12 +57,16 @@ class BagWriter:
         self.topics = {}          # topic -> msgtype
         self.counts = {}          # topic -> messages in finished splits
         self.finished = []        # metadata of finished splits
+        self._channels = {}       # topic -> (message definition, offered QoS as YAML): what each split registers
         self._split = None
 
     def add_topic(self, topic, msgtype):
         if topic not in self.topics:
             self.topics[topic] = msgtype
             self.counts[topic] = 0
+            msgdef, _ = typestore().generate_msgdef(msgtype, ros_version=2)
+            self._channels[topic] = (msgdef.encode(),
+                                     yaml.safe_dump([offered_qos(topic, msgtype)], default_flow_style=False))
 
     def write_message(self, topic, stamp_ns, message):
         """Store an rclpy message (built by emla_core.messages) on `topic` at time `stamp_ns`."""
@@ -85,9 +89,8 @@ class BagWriter:
 
     def _register(self, writer, topic):
         msgtype = self.topics[topic]
-        msgdef, _ = typestore().generate_msgdef(msgtype, ros_version=2)
-        schema = writer.register_schema(name=msgtype, encoding='ros2msg', data=msgdef.encode())
-        qos = yaml.safe_dump([offered_qos(topic, msgtype)], default_flow_style=False)
+        msgdef, qos = self._channels[topic]
+        schema = writer.register_schema(name=msgtype, encoding='ros2msg', data=msgdef)
         return writer.register_channel(topic=topic, message_encoding='cdr', schema_id=schema,
                                        metadata={'offered_qos_profiles': qos})
 
@@ -137,7 +140,10 @@ class BagWriter:
         }
         tmp = self.path / 'metadata.yaml.tmp'
         with tmp.open('w') as f:
-            yaml.safe_dump({'rosbag2_bagfile_information': info}, f, default_flow_style=False, sort_keys=False)
+            # libyaml's dumper: this runs at every split, in the recorder's process, where pure-Python YAML costs
+            # more than writing the split's messages
+            yaml.dump({'rosbag2_bagfile_information': info}, f, Dumper=yaml.CSafeDumper, default_flow_style=False,
+                      sort_keys=False)
             f.flush()
             os.fsync(f.fileno())
         os.replace(tmp, self.path / 'metadata.yaml')

@@ -2,17 +2,21 @@
 
 Graph (namespace /emla, SI units). A SampleFrame holds consecutive samples of one signal, stamped with the
 simulated time of its first sample; the frames of control period k (Tc = n Ts, k = 0, 1, ...) are:
-  voltage frames (/emla/plant/voltage, /emla/voltage, /emla/voltage_command, /emla/reference): the n values
-    over [k Tc + j Ts, k Tc + (j+1) Ts), j = 0..n-1, stamp k Tc;
-  state frames (/emla/plant/{current,position}, /emla/{current,position}): the n samples the period's voltage
-    intervals end on, at k Tc + (j+1) Ts, stamp k Tc + Ts; so the state at (k+1) Tc, the one the command for
-    period k+1 must start from, is the last sample of period k's frame. Before period 0 the plant publishes
-    one state frame of a single sample: the state at t = 0, stamp 0.
+  voltage frames (/emla/voltage, /emla/voltage_command): the n values over [k Tc + j Ts, k Tc + (j+1) Ts),
+    j = 0..n-1, stamp k Tc;
+  state frames (/emla/{current,position}): the n samples the period's voltage intervals end on, at
+    k Tc + (j+1) Ts, stamp k Tc + Ts; so the state at (k+1) Tc is the last sample of period k's frame. Before
+    period 0 the plant publishes one state frame of a single sample: the state at t = 0, stamp 0.
+Frames only a recorder reads (the plant's truth /emla/plant/{voltage,current,position}, /emla/reference) span
+10 periods alike (the plant's parameters_period, the controller's REFERENCE_FRAME): fewer, longer messages cost
+every process less (a delivery costs a process a wake-up, some 0.1 ms here). The plant's truth of each period
+goes to the sensor in one message, a SignalFrames on /emla/plant/frames.
 Aligned by stamp (as emla_core.bag.read_bag does), the state samples at t_j pair with the voltage held over
 [t_j, t_j + Ts), the Recording convention; `AlignedSamples` does this for a node.
 
 | topic                                  | type                            | publisher  | QoS     |
 |----------------------------------------|---------------------------------|------------|---------|
+| /emla/plant/frames                     | emla_msgs/SignalFrames (truth)  | plant      | FRAME   |
 | /emla/plant/{voltage,current,position} | emla_msgs/SampleFrame (truth)   | plant      | FRAME   |
 | /emla/plant/parameters                 | emla_msgs/ParameterEstimate     | plant      | LATCHED |
 | /emla/plant/done                       | builtin_interfaces/Time         | plant      | LATCHED |
@@ -27,29 +31,41 @@ non-adaptive controller's identifier or a recorder, may lag that much without lo
 LATCHED: reliable, transient local, keep last 1 (a late subscriber gets the latest);
 CLOCK: best effort, volatile, keep last 1 (as rclpy's time source subscribes); DIAGNOSTICS: reliable, 10.
 *and the sensor's and controller's input faults (see Bad frames).
+The nodes publish and read frames as serialised bytes (emla_core.messages.frame_cdr, read_frame_cdr: no rclpy
+message built), and run with the suite's Fast DDS profile (fastdds.xml beside this module: writers send no
+heartbeat with every sample nor fire a timer per sample and reader, participants announce themselves often
+while the graph starts), which spares each process wake-ups and a launch seconds of discovery.
 
-Deterministic lockstep in simulated time:
+Deterministic lockstep in simulated time, the controller one period ahead of the plant:
 1. Start: once /emla/position has `start_subscribers` subscriptions (the plant's parameter: controller,
-   identifier, recorders: whoever must see every frame) and /emla/plant/done has `done_subscribers` (identifier,
-   recorders, a launcher: whoever must learn the end), the plant publishes the state at t = 0.
-2. Sensor: measures each state frame (pairs /emla/plant/current and /position by stamp) and publishes it with
-   the same stamp; voltage frames pass unchanged to /emla/voltage.
+   identifier, recorders: whoever must see every frame), /emla/plant/done has `done_subscribers` (identifier,
+   recorders, a launcher: whoever must learn the end) and, with start_subscribers > 0, the plant's frames
+   and its commands are matched (the sensor, the controller), the plant publishes the state at t = 0. The
+   controller and identifier subscribe to /emla/position only once their other frame topics have a matched
+   publisher (subscribe_frames), so the loop's first frames do not wait for a late discovery.
+2. Sensor: measures the state frames of each plant message and publishes them with the same stamp; the
+   voltage frame passes unchanged to /emla/voltage.
 3. Controller: from the last sample of each measured state frame (time t = stamp + (size - 1) Ts) it computes
-   the command for the period starting at t (n equal values, stamp t) and the reference it tracks (also
-   after the final frame: that command, for the period after the end, goes unused).
-4. Plant: advances period k only with the command stamped k Tc in hand; publishes its voltage and state
-   frames, then /clock = (k+1) Tc.
+   the command for the period starting at t + Tc (n equal values, stamp t + Tc), predicting the state there
+   from its model under the command of the period from t, which it published a period earlier: one period
+   of computational delay, as any digital controller has, so that it computes while the plant runs. From the
+   first state (t = 0) it commands the period from t = 0 too, with the law's voltage there. Its commands for
+   the two periods after the end go unused.
+4. Plant: advances period k only with the command stamped k Tc in hand; publishes its frames (to the sensor),
+   then /clock = (k+1) Tc. It holds the command for period k+1 by the end of period k unless the loop
+   (plant -> sensor -> controller -> plant, three deliveries) takes longer than a period of the plant's.
 5. Identifier: feeds the aligned samples in time order to the estimator and publishes /emla/parameters (in
    ARX mode /emla/arx_model) at every multiple of `publish_period` that ends a period, stamped with the END of
-   the data it covers: the estimate stamped t has used every voltage interval before t. An adaptive controller (its
-   `adaptation_period` is a multiple of that publish_period) waits before the command for each period
-   starting at t = j adaptation_period (j >= 1) for exactly the estimate stamped t. Lag: the command held from
-   t on uses the estimate from all the data before t (as the in-process loop, emla_control.loop, does), so a
-   plant change reaches the model at the next adaptation instant, up to adaptation_period later (plus the
-   estimator's own memory).
+   the data it covers: the estimate stamped t has used every voltage interval before t. An adaptive controller
+   (its `adaptation_period` Ta is a multiple of that publish_period) takes the estimate stamped t at the next
+   adaptation instant, before the command it computes at t + Ta (waiting for it if need be): the identifier
+   has a whole adaptation period to deliver it, so the loop does not wait for its computation. Lag: the
+   command held from t + Ta + Tc on uses the estimate from all the data before t, so a plant change reaches
+   the model up to two adaptation periods later (plus the estimator's own memory; the in-process loop,
+   emla_control.loop, has neither the computational delay nor this adaptation period of lag).
 Every message travels on a reliable, in-order topic and each node computes from its inputs alone, so a run's
 samples do not depend on scheduling. Frames are transient local so that a reader that matches a publisher
-late (start-up) still gets them; nothing is in flight in the loop beyond one period.
+late (start-up) still gets them; in the loop, at most two periods' messages are in flight.
 
 Done signal: with duration > 0 the plant advances round(duration / Tc) periods, publishes the final frames,
 the final true parameters and /emla/plant/done (builtin_interfaces/Time: the end time, latched), and exits 0
@@ -62,8 +78,8 @@ Bad frames (a real sensor stream loses some): the sensor, controller and identif
 empty, non-finite and wrong-period frames and stamps that jump back; each such fault is a warning in the log
 and a count on /diagnostics (`Faults`; `FrameSets` and `AlignedSamples` find them and resynchronise). The
 sensor publishes empty frames for a period whose plant frames it cannot use (non-finite samples it measures
-as they are); the controller holds its last voltage over a period whose state it lacks and publishes it, so
-the lockstep goes on (it does not wait for an estimate then); the identifier skips the instants it lacks
+as they are); the controller holds its last voltage over the period after a state it lacks and publishes it,
+so the lockstep goes on (it does not wait for an estimate then); the identifier skips the instants it lacks
 usable samples for, and none of its regression rows spans them. A frame lost outright inside the lockstep
 stalls it: the next one needs the command it would have led to.
 
@@ -86,11 +102,13 @@ import signal
 import sys
 import time
 import types
+from pathlib import Path
 
 import numpy as np
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rclpy.clock import Clock, ClockType
 from rclpy.duration import Duration
 from rclpy.exceptions import ParameterException
 from rclpy.experimental import EventsExecutor
@@ -100,9 +118,9 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rclpy.signals import SignalHandlerOptions
 
 from emla_core.errors import InputError
-from emla_core.messages import frame_data, message_class
+from emla_core.messages import message_class, read_frame_cdr
 from emla_core.parameters import PARAMETER_UNITS, TABLE1
-from emla_core.topics import DIAGNOSTICS_TOPIC, QOS, SAMPLE_FRAME, stamp_to_ns, to_ns
+from emla_core.topics import DIAGNOSTICS_TOPIC, QOS, SAMPLE_FRAME, START_TOPIC, to_ns
 from emla_msgs.msg import SampleFrame
 
 
@@ -116,8 +134,10 @@ def qos_profile(kind):
 
 FRAME_QOS, LATCHED_QOS, CLOCK_QOS, DIAGNOSTICS_QOS = map(qos_profile, ('frame', 'latched', 'clock', 'diagnostics'))
 ACK_TIMEOUT = 4.0  # s a stopping node waits for its readers' acknowledgements
+FASTDDS_PROFILES = Path(__file__).with_name('fastdds.xml')  # the suite's Fast DDS defaults (why: see there)
 INPUT_DEPTH = 1000  # messages a reader of a standard input topic keeps (1 s at 1 kHz)
-DISCOVERY_PERIOD = 0.1  # s between looks at the graph for the publishers of standard input topics
+DISCOVERY_PERIOD = 0.1  # s between looks at the graph (publishers of standard input topics, matched frame topics)
+STEADY_CLOCK = Clock(clock_type=ClockType.STEADY_TIME)  # of those looks: simulated time may stand still meanwhile
 
 
 def period_samples(sample_period, control_period):
@@ -167,6 +187,26 @@ class Faults:
         self._diagnostics.publish(array)
 
 
+def subscribe_frames(node, topics, receive):
+    """Subscribe to the frame topics {name: topic}, calling receive(name, cdr) with each frame as bytes (no rclpy
+    message built). The plant's start topic (/emla/position) last, once the others have a matched publisher:
+    the plant starts when that topic has its readers, and frames to a reader whose participant had not yet
+    discovered the sensor's would wait for the next discovery announcement (seconds)."""
+    def subscribe(name, topic):
+        return node.create_subscription(SampleFrame, topic, lambda cdr: receive(name, cdr), FRAME_QOS, raw=True)
+
+    held = {name: topic for name, topic in topics.items() if topic == START_TOPIC and len(topics) > 1}
+    others = [subscribe(name, topic) for name, topic in topics.items() if name not in held]
+
+    def join():
+        if all(subscription.get_publisher_count() for subscription in others):
+            node.destroy_timer(timer)
+            for name, topic in held.items():
+                subscribe(name, topic)
+    if held:
+        timer = node.create_timer(DISCOVERY_PERIOD, join, clock=STEADY_CLOCK)
+
+
 class FrameSets:
     """Subscribes to frame topics {name: topic}; calls on_set(stamp_ns, sample_period, {name: array}) once
     every topic has delivered its frame with that stamp (in stamp order: each topic is in order). With
@@ -186,9 +226,13 @@ class FrameSets:
         self._step = None if sample_period is None else to_ns(sample_period)
         self._last = dict.fromkeys(topics)  # name -> (stamp, end) of its latest frame; end None if unknown
         self._pending = {}  # stamp -> {name: (samples, sample_period), or None if unusable}
-        for name, topic in topics.items() if subscribe else ():
-            node.create_subscription(SampleFrame, topic, lambda msg, name=name: self.receive(
-                name, stamp_to_ns(msg.header.stamp), frame_data(msg), msg.sample_period), FRAME_QOS)
+        if subscribe:
+            subscribe_frames(node, topics, self.receive_cdr)
+
+    def receive_cdr(self, name, cdr):
+        """A serialised frame of input `name`."""
+        stamp, period, samples = read_frame_cdr(cdr)
+        self.receive(name, stamp, samples, period)
 
     def receive(self, name, stamp, samples, period):
         """A frame of input `name`: `samples` (1-D array) from `stamp` (ns) on, `period` s apart."""
@@ -225,11 +269,12 @@ class FrameSets:
 
 class AlignedSamples:
     """Subscribes to frame topics {name: topic} of one sample period and calls on_samples(start_ns, {name:
-    array}) with the samples all of them have at the same instants, in time order, as soon as they have them,
-    in chunks that never straddle a multiple of `boundary` (ns), so those instants are always chunk ends.
-    The graph's frames (state frames one sample later than voltage frames) come out in the Recording
-    convention, the estimator's input: the state samples where each voltage interval starts. Frames aligned
-    already (a bag of `emla simulate` played) pass as they are.
+    array}) with the samples all of them have at the same instants, in time order, in chunks that end at the
+    multiples of `boundary` (ns): a chunk is passed on once all have the samples up to the next multiple, or
+    up to a gap, or up to the end of the input (finish()). Few long chunks: an estimator's update costs about
+    as much per call as for a hundred samples. The graph's frames (state frames one sample later than voltage
+    frames) come out in the Recording convention, the estimator's input: the state samples where each voltage
+    interval starts. Frames aligned already (a bag of `emla simulate` played) pass as they are.
 
     Instants some topic has no samples for (lost or unusable frames, see FrameSets; faults reported there)
     are skipped: the next chunk starts later than the last one ended, at the first instant all have again.
@@ -240,20 +285,31 @@ class AlignedSamples:
         self._on_samples = on_samples
         self._step = to_ns(sample_period)
         self._boundary = boundary
+        self._finish = None  # the end of the input, once known
         self._cursor = None  # the first instant not passed on (or skipped) yet
         self._queues = {name: [] for name in topics}  # name -> [(stamp, samples)] not passed on yet
-        self._frames = {name: FrameSets(node, {name: topic}, self._on_set, faults, sample_period, subscribe)
+        self._frames = {name: FrameSets(node, {name: topic}, self._on_set, faults, sample_period, subscribe=False)
                         for name, topic in topics.items()}
+        if subscribe:
+            subscribe_frames(node, topics, lambda name, cdr: self._frames[name].receive_cdr(name, cdr))
 
     def receive(self, name, stamp, samples, period):
         """A frame of input `name` (see FrameSets.receive)."""
         self._frames[name].receive(name, stamp, samples, period)
+
+    def finish(self, end):
+        """The input ends at `end` (ns): pass on the samples up to it without waiting for a multiple of boundary."""
+        self._finish = end
+        self._pass_on()
 
     def _on_set(self, stamp, sample_period, frames):
         if frames is None:
             return  # an unusable frame: its instants will be skipped
         ((name, samples),) = frames.items()
         self._queues[name].append((stamp, samples))
+        self._pass_on()
+
+    def _pass_on(self):
         while True:
             if self._cursor is not None:
                 for queue in self._queues.values():  # drop what the cursor skipped
@@ -265,8 +321,12 @@ class AlignedSamples:
             if self._cursor is None or resume > self._cursor:
                 self._cursor = resume  # the start, or a skip over instants some topic lacks
                 continue
-            end = min((self._cursor // self._boundary + 1) * self._boundary,
-                      *(self._contiguous_end(queue) for queue in self._queues.values()))
+            boundary = (self._cursor // self._boundary + 1) * self._boundary
+            ends = {name: self._contiguous_end(queue) for name, queue in self._queues.items()}
+            end = min(boundary, *ends.values())
+            if end < boundary and end != self._finish and \
+                    all(self._end(self._queues[name][-1]) == ends[name] for name in ends if ends[name] == end):
+                return  # the samples after `end` are still to come (no gap there)
             chunk = {name: self._take(queue, end) for name, queue in self._queues.items()}
             start, self._cursor = self._cursor, end
             self._on_samples(start, chunk)
@@ -278,10 +338,10 @@ class AlignedSamples:
     def _contiguous_end(self, queue):
         """The end of the queued samples that follow on from the first frame without a gap."""
         end = self._end(queue[0])
-        for frame in itertools.islice(queue, 1, None):
-            if frame[0] != end:
+        for stamp, samples in itertools.islice(queue, 1, None):  # (_end inline: called for every frame queued)
+            if stamp != end:
                 break
-            end = self._end(frame)
+            end = stamp + len(samples) * self._step
         return end
 
     def _take(self, queue, end):
@@ -324,7 +384,7 @@ class StandardTopics:
         self._waiting = {}  # topic -> [(name, TopicSignal)], until it is subscribed
         for name, spec in signals.items():
             self._waiting.setdefault(spec.topic, []).append((name, spec))
-        self._timer = node.create_timer(DISCOVERY_PERIOD, self._discover)
+        self._timer = node.create_timer(DISCOVERY_PERIOD, self._discover, clock=STEADY_CLOCK)
 
     def _discover(self):
         for topic, signals in list(self._waiting.items()):
@@ -423,14 +483,28 @@ def declare(node, specs):
 
 class EmlaNode(Node):
     """A node of the suite (namespace /emla); it ends the process when `finished` becomes true (with exit
-    status 2 after fail())."""
+    status 2 after fail()).
+
+    POLL_PERIOD: None for a node that handles each message as it comes (the loop's); for one outside the loop,
+    a period (s): it handles every POLL_PERIOD what came meanwhile, its readers keeping the messages until
+    then. A wake-up costs a process more than handling a message, and that way it wakes 1/POLL_PERIOD times a
+    second, not once per message."""
 
     NAME = ''
+    POLL_PERIOD = None
 
     def __init__(self):
         super().__init__(self.NAME, namespace='/emla')
         self.finished = False
         self.error = None
+        self.handled = 0  # messages its subscriptions handled
+
+    def create_subscription(self, msg_type, topic, callback, *args, **kwargs):
+        """Node.create_subscription, counting the messages handled in `handled`."""
+        def counted(msg):
+            self.handled += 1
+            callback(msg)
+        return super().create_subscription(msg_type, topic, counted, *args, **kwargs)
 
     def ready(self):
         """What `run` says once the node is constructed: the topics it subscribed to and publishes."""
@@ -442,6 +516,18 @@ class EmlaNode(Node):
     def fail(self, message):
         """End the node for bad input found while it runs: `message` as its one line, exit status 2."""
         self.error, self.finished = message, True
+
+    def spin(self, executor):
+        """One turn of the spin loop of `run`: handle the next event (waiting for one at most 0.05 s); with a
+        POLL_PERIOD, wait that long, then handle the messages that came."""
+        if self.POLL_PERIOD is None:
+            executor.spin_once(timeout_sec=0.05)
+            return
+        time.sleep(self.POLL_PERIOD)
+        handled = None
+        while handled != self.handled:  # one event (a subscription's messages, a timer) per spin_once
+            handled = self.handled
+            executor.spin_once(timeout_sec=0)
 
     def stop(self, executor):
         """Called once the spin loop of `run` ends: wait until readers acknowledged what was published."""
@@ -457,6 +543,13 @@ def wait_for_acknowledgements(node, timeout=ACK_TIMEOUT):
         publisher.wait_for_all_acked(Duration(seconds=max(0.0, deadline - time.monotonic())))
 
 
+def use_fastdds_profiles():
+    """Give the Fast DDS participants this process creates the suite's defaults (FASTDDS_PROFILES), unless a
+    profiles file is set already; before rclpy.init."""
+    if not (os.environ.get('FASTRTPS_DEFAULT_PROFILES_FILE') or os.environ.get('FASTDDS_DEFAULT_PROFILES_FILE')):
+        os.environ['FASTRTPS_DEFAULT_PROFILES_FILE'] = str(FASTDDS_PROFILES)
+
+
 def run(node_class, args=None):
     """Run one node (an EmlaNode class) until it finishes or SIGINT/SIGTERM arrives, then its stop()
     (by default: wait for the acknowledgements of what it published); the exit status. Once the node is
@@ -466,6 +559,7 @@ def run(node_class, args=None):
     stopping = []
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, lambda *_: stopping.append(True))
+    use_fastdds_profiles()
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     try:
         node = node_class()
@@ -478,7 +572,7 @@ def run(node_class, args=None):
     print(f'{node_class.NAME}: ready ({node.ready()})', file=sys.stderr)
     try:
         while not stopping and not node.finished:
-            executor.spin_once(timeout_sec=0.05)
+            node.spin(executor)
         node.stop(executor)
     finally:
         executor.shutdown()
@@ -500,6 +594,7 @@ def ros_node(name, domain=None):
     if domain is not None:
         os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'   # read by rclpy.init
     context = rclpy.Context()
+    use_fastdds_profiles()
     rclpy.init(context=context, domain_id=domain, signal_handler_options=SignalHandlerOptions.NO)
     node = rclpy.create_node(name, context=context, start_parameter_services=False)
     executor = EventsExecutor(context=context)

@@ -162,6 +162,7 @@ class IdentifierNode(common.EmlaNode):
 
     def on_done(self, msg):
         self.end = topics.stamp_to_ns(msg)
+        self.measured.finish(self.end)
         if self.covered == self.end and self.published != self.end:
             self.publish()
 

@@ -1,11 +1,16 @@
 """The plant node: the simulated actuator, one control period per voltage command (lockstep, see common).
 
+Each period's true frames go to the sensor in one SignalFrames message (/emla/plant/frames); on
+/emla/plant/{voltage,current,position}, which only a recorder reads, they go with the true parameters, in
+frames of `parameters_period`.
+
 Effects by name (`effects`), tuned by `effect_parameters` entries 'effect.field=value'; timed parameter
 changes from the equally long arrays change_times / change_parameters / change_factors.
 """
 import sys
 import time
 
+import numpy as np
 from builtin_interfaces.msg import Time
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
@@ -14,7 +19,7 @@ from emla_core import messages, topics
 from emla_core.errors import InputError
 from emla_core.nodes import common
 from emla_core.parameters import PARAMETER_NAMES, ActuatorParameters
-from emla_msgs.msg import ParameterEstimate, SampleFrame
+from emla_msgs.msg import ParameterEstimate, SampleFrame, SignalFrames
 from emla_sim.effects import EFFECTS, ParameterChange, make_effect
 from emla_sim.plant import Plant
 
@@ -34,8 +39,9 @@ SPECS = [
                 f'parameter each change scales, of {PARAMETER_NAMES}'),
     common.Spec('change_factors', Parameter.Type.DOUBLE_ARRAY, 'factor each change multiplies it by, 1'),
     common.Spec('parameters_period', topics.ESTIMATE_PERIOD,
-                'publish the true parameters at multiples of this (and after each change), s', 1e-6, 1e6),
-    common.Spec('start_subscribers', 2, 'start once /emla/position has this many subscriptions, 1', 0, 1000),
+                'publish the true parameters and frames at multiples of this (and after each change), s', 1e-6, 1e6),
+    common.Spec('start_subscribers', 2, 'start once /emla/position has this many subscriptions (and, if > 0, the '
+                'frames for the sensor and the commands are matched), 1', 0, 1000),
     common.Spec('done_subscribers', 1, 'and /emla/plant/done this many (the plant leaves once they acknowledged '
                 'it; a reader found later would never get it), 1', 0, 1000),
 ]
@@ -84,10 +90,13 @@ class PlantNode(common.EmlaNode):
         self.wall_start = None  # wall clock at the first command (for the realtime factor)
         self.commands = {}  # stamp -> voltages
         self.frames = common.frame_publishers(self, topics.PLANT_TOPICS)
+        self.true_frames = {name: [] for name in topics.SIGNALS}  # (stamp, samples) not yet on PLANT_TOPICS
+        self.together = self.create_publisher(SignalFrames, topics.PLANT_FRAMES_TOPIC, common.FRAME_QOS)
         self.truth = self.create_publisher(ParameterEstimate, topics.TRUE_PARAMETERS_TOPIC, common.LATCHED_QOS)
         self.done = self.create_publisher(Time, topics.DONE_TOPIC, common.LATCHED_QOS)
         self.clock = self.create_publisher(Clock, topics.CLOCK_TOPIC, common.CLOCK_QOS)
-        self.create_subscription(SampleFrame, topics.COMMAND_TOPIC, self.on_command, common.FRAME_QOS)
+        self.commands_in = self.create_subscription(SampleFrame, topics.COMMAND_TOPIC, self.on_command,
+                                                    common.FRAME_QOS, raw=True)
         self.barrier = self.create_timer(0.02, self.try_start)
         self.get_logger().info('waiting for ' + ' and '.join(f'{n} subscription(s) of {topic}'
                                                              for topic, n in self.awaited_readers.items()))
@@ -99,22 +108,24 @@ class PlantNode(common.EmlaNode):
     def try_start(self):
         if any(self.count_subscribers(topic) < n for topic, n in self.awaited_readers.items()):
             return
+        if self.awaited_readers[topics.START_TOPIC] and not (self.together.get_subscription_count()
+                                                             and self.commands_in.get_publisher_count()):
+            return  # a loop to run: its first frames would wait for these to match (up to a discovery period)
         self.barrier.cancel()
         self.get_logger().info('started')
-        state = {'current': [self.plant.current], 'position': [self.plant.position]}
-        for name in state:
-            self.frames[name].publish(messages.frame_message(0, self.sample_period, state[name]))
+        self.publish_frames({'voltage': (0, []), 'current': (0, [self.plant.current]),
+                             'position': (0, [self.plant.position])})
         self.publish_truth()
         self.clock.publish(Clock(clock=messages.time_msg(0)))
         self.advance()
 
-    def on_command(self, msg):
-        stamp = topics.stamp_to_ns(msg.header.stamp)
-        if stamp < self.now or len(msg.data) != self.samples_per_period:
-            self.get_logger().error(f'ignored a voltage command stamped {stamp} ns with {len(msg.data)} samples '
+    def on_command(self, cdr):
+        stamp, _, voltages = messages.read_frame_cdr(cdr)
+        if stamp < self.now or len(voltages) != self.samples_per_period:
+            self.get_logger().error(f'ignored a voltage command stamped {stamp} ns with {len(voltages)} samples '
                                     f'(expected {self.samples_per_period} from {self.now} ns on)')
             return
-        self.commands[stamp] = messages.frame_data(msg)
+        self.commands[stamp] = voltages
         if self.barrier.is_canceled():
             self.advance()
 
@@ -125,10 +136,9 @@ class PlantNode(common.EmlaNode):
                 self.wall_start = time.monotonic()
             voltages = self.commands.pop(start).clip(-self.supply, self.supply)  # as the plant applies them
             states = [self.plant.step(u, self.sample_period) for u in voltages.tolist()]  # (I, x, v) at the ends
-            for c, name in enumerate(('current', 'position')):
-                self.frames[name].publish(messages.frame_message(start + self.step, self.sample_period,
-                                                               [state[c] for state in states]))
-            self.frames['voltage'].publish(messages.frame_message(start, self.sample_period, voltages))
+            self.publish_frames({'voltage': (start, voltages),
+                                 'current': (start + self.step, [state[0] for state in states]),
+                                 'position': (start + self.step, [state[1] for state in states])})
             self.period += 1
             self.clock.publish(Clock(clock=messages.time_msg(self.now)))
             changed = any(start * 1e-9 < c.time <= self.now * 1e-9 for c in self.changes)
@@ -137,9 +147,28 @@ class PlantNode(common.EmlaNode):
             if self.period == self.periods:
                 self.finish()
 
+    def publish_frames(self, frames):
+        """A period's true frames {signal: (stamp, samples)}: in one message to the sensor now, on PLANT_TOPICS
+        with the next truth (only a recorder reads them: fewer, longer frames cost it less)."""
+        self.together.publish(messages.signal_frames_cdr(self.sample_period, frames))
+        for name, frame in frames.items():
+            if len(frame[1]):
+                self.true_frames[name].append(frame)
+
     def publish_truth(self):
+        """The true frames held (one per signal) and the true parameters."""
+        for name, frames in self.true_frames.items():
+            if frames:
+                samples = np.concatenate([samples for _, samples in frames])
+                self.frames[name].publish(messages.frame_cdr(frames[0][0], self.sample_period, samples))
+                frames.clear()
         self.truth.publish(messages.estimate_message(self.now, self.plant.true_parameters().physical(),
                                                    std=dict.fromkeys(PARAMETER_NAMES, 0.0)))
+
+    def stop(self, executor):
+        if not self.finished and self.barrier.is_canceled():
+            self.publish_truth()  # stopped early: the true frames held
+        super().stop(executor)
 
     def finish(self):
         wall = time.monotonic() - self.wall_start

@@ -1,8 +1,9 @@
 """The sensor node: the DSP's view of the plant (emla_sim.sensor), frame by frame (see common).
 
-State frames /emla/plant/{current,position} are measured (delay, noise, quantisation) onto /emla/*; the
-voltage frames pass unchanged (the DSP knows what it applied). Plant frames it cannot use (see common) give
-empty measured frames with their stamp: the period goes unmeasured, the lockstep goes on.
+The plant's true frames of each period come in one message (/emla/plant/frames): the current and position
+frames are measured (delay, noise, quantisation) onto /emla/current and /emla/position, the voltage frame
+passes unchanged onto /emla/voltage (the DSP knows what it applied). State frames it cannot use (see common)
+give empty measured frames with their stamp: the period goes unmeasured, the lockstep goes on.
 """
 import sys
 
@@ -10,8 +11,10 @@ import numpy as np
 
 from emla_core import messages, topics
 from emla_core.nodes import common
-from emla_msgs.msg import SampleFrame
+from emla_msgs.msg import SignalFrames
 from emla_sim.sensor import Sensor, SensorConfig
+
+STATES = ('current', 'position')
 
 SPECS = [
     common.Spec('current_noise_std', SensorConfig.current_noise_std, 'current noise (Gaussian), std, A', 0.0, 100.0),
@@ -32,15 +35,23 @@ class SensorNode(common.EmlaNode):
         p = common.declare(self, SPECS)
         self.sensor = Sensor(SensorConfig(**{spec.name: getattr(p, spec.name) for spec in SPECS}))
         self.outputs = common.frame_publishers(self, topics.MEASURED_TOPICS)
-        self.create_subscription(SampleFrame, topics.PLANT_TOPICS['voltage'], self.outputs['voltage'].publish,
-                                 common.FRAME_QOS, raw=True)  # passed on serialised
-        self.states = common.FrameSets(self, {name: topics.PLANT_TOPICS[name] for name in ('current', 'position')},
-                                       self.measure, common.Faults(self))
+        self.states = common.FrameSets(self, {name: f'{topics.PLANT_FRAMES_TOPIC} {name}' for name in STATES},
+                                       self.measure, common.Faults(self), subscribe=False)
+        self.create_subscription(SignalFrames, topics.PLANT_FRAMES_TOPIC, self.on_frames, common.FRAME_QOS, raw=True)
+
+    def on_frames(self, cdr):
+        frames = messages.read_signal_frames_cdr(cdr)
+        for name in STATES:
+            stamp, sample_period, samples = frames[name]
+            self.states.receive(name, stamp, samples, sample_period)
+        stamp, sample_period, voltages = frames['voltage']
+        if len(voltages):  # (none beside the state at t = 0)
+            self.outputs['voltage'].publish(messages.frame_cdr(stamp, sample_period, voltages))
 
     def measure(self, stamp, sample_period, frames):
         measured = (np.empty(0),) * 2 if frames is None else self.sensor.measure(frames['current'], frames['position'])
-        for name, samples in zip(('current', 'position'), measured):
-            self.outputs[name].publish(messages.frame_message(stamp, sample_period, samples))
+        for name, samples in zip(STATES, measured):
+            self.outputs[name].publish(messages.frame_cdr(stamp, sample_period, samples))
 
 
 def main(args=None):
