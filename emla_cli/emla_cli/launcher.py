@@ -323,8 +323,9 @@ def launch(scenario, duration, bag, node_parameters):
             graph.start(name, [str(BIN / 'emla'), 'run', name, '--params-file',
                                str(write_params(tmp, name, parameters.get(name, {})))])
         _wait_for_final(graph, monitor, executor, bar)
-        graph.stop(NODES)
-        graph.stop(['recorder'])
+        # All at once: every message was published before the final estimate came; the recorder records until
+        # its topics are quiet (drain_time) and meanwhile acknowledges what the stopping nodes wait for.
+        graph.stop()
         if graph['recorder'].popen.returncode != 0:
             raise LaunchError(f'the recorder failed: {graph["recorder"].describe_exit()}')
         final, rtf, cpu = monitor.final(), monitor.realtime_factor(), monitor.cpu_per_simulated_second()

@@ -12,11 +12,13 @@ Examples
 >>> recording.sample_period, sorted(recording.signals)  # doctest: +SKIP
 (0.0001, ['current', 'position', 'voltage'])
 """
-from emla_core.data import load
-from emla_core.errors import InputError
-from emla_core.parameters import PARAMETER_NAMES, PARAMETER_UNITS, TABLE1, ActuatorParameters
-from emla_core.data import read_csv
-from emla_core.recording import Recording, write_csv
+from emla_core.exports import lazy_exports
+
+_EXPORTS = {'ActuatorParameters': 'parameters', 'InputError': 'errors', 'PARAMETER_NAMES': 'parameters',
+            'PARAMETER_UNITS': 'parameters', 'Recording': 'recording', 'TABLE1': 'parameters', 'load': 'data',
+            'read_csv': 'data', 'write_csv': 'recording'}
 
 __all__ = ['ActuatorParameters', 'InputError', 'PARAMETER_NAMES', 'PARAMETER_UNITS', 'Recording', 'TABLE1', 'load',
            'read_csv', 'write_csv']
+# loaded on first use: a node that imports one module of emla_core does not load the data readers (scipy)
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

@@ -6,10 +6,13 @@ reader   read_bag: whole signals, parameter estimates and metadata of a bag; ite
          bag_topics; corrupt chunks skipped with a warning (CorruptChunk) or refused where they leave a gap
 chunks   iter_chunks: the same signals in parts with bounded memory (compiled SampleFrame decoding)
 """
-from .chunks import iter_chunks
-from .reader import BagContents, CorruptChunk, bag_topics, iter_messages, iter_serialized, read_bag
-from .schema import typestore
-from .writer import BagWriter, write_recording
+from emla_core.exports import lazy_exports
+
+_EXPORTS = {'iter_chunks': 'chunks', 'typestore': 'schema', 'BagWriter': 'writer', 'write_recording': 'writer',
+            **dict.fromkeys(('BagContents', 'CorruptChunk', 'bag_topics', 'iter_messages', 'iter_serialized',
+                             'read_bag'), 'reader')}
 
 __all__ = ['BagContents', 'BagWriter', 'CorruptChunk', 'bag_topics', 'iter_chunks', 'iter_messages', 'iter_serialized',
            'read_bag', 'typestore', 'write_recording']
+# loaded on first use: the recorder writes bags without loading the compiled reader (numba)
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
