@@ -216,6 +216,46 @@ def test_control_period_can_be_a_multiple_of_the_sample_period():
         run_closed_loop(Plant(P), InverseSystemController(P, control_period=1.5e-4), REF, 0.01)
 
 
+
+def _tracking_at_1ms(policy, periods=200):
+    """RMS tracking error (true position) at 10 kHz under a 1 ms control period (the graph's), 150 Hz:
+    'now' computes each period's voltage from the sample at its start (no computational delay), 'ahead' one
+    period earlier with step_ahead (the controller node), 'late' the same delay without the model's prediction
+    (the law told the sample at t is the state at t + Tc)."""
+    n, ts = 10, 1e-4
+    plant, sensor = Plant(P), Sensor()
+    controller = InverseSystemController(P, control_period=n * ts, bandwidth=150.0)
+    controller.reset(plant.position)
+
+    def midpoint(k):
+        return tuple(float(r[0]) for r in REF(np.array([(k + 0.5) * n * ts])))
+    held, error = None, []
+    for k in range(periods):
+        current, position = sensor.measure(plant.current, plant.position)
+        if policy == 'now':
+            voltage = controller.step(current, position, midpoint(k))
+        elif policy == 'ahead':
+            held = controller.start_ahead(current, position, midpoint(0)) if held is None else held
+            voltage, held = held, controller.step_ahead(current, position, midpoint(k + 1))
+        else:
+            held = controller.step(current, position, midpoint(0)) if held is None else held
+            voltage, held = held, controller.step(current, position, midpoint(k + 1))
+        for j in range(n):
+            error.append(plant.position - REF(np.array([(k * n + j) * ts]))[0][0])
+            plant.step(voltage, ts)
+    return math.sqrt(np.mean(np.square(error)))
+
+
+def test_one_period_of_computational_delay_costs_little_with_the_models_prediction():
+    """The controller node computes the next period's voltage while the plant runs this one; predicting the
+    state over that period from the model keeps the tracking within 10 % of a controller without delay (12 um
+    here), where ignoring the delay loses it (hundreds of um)."""
+    rms = {policy: _tracking_at_1ms(policy) for policy in ('now', 'ahead', 'late')}
+    assert rms['now'] < 15e-6
+    assert rms['ahead'] < 1.1 * rms['now']
+    assert rms['late'] > 10 * rms['ahead']
+
+
 # ---- metrics ----
 
 def test_tracking_metrics_on_signals_with_known_values():

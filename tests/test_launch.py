@@ -113,10 +113,18 @@ def test_bag_reads_with_rosbags_and_mcap_ros2(runs):
     assert final.samples_used == DURATION * 10_000
 
 
-def test_final_online_estimates_are_within_3_percent_of_the_truth(runs):
+def test_final_online_estimates_are_within_1_percent_of_the_truth(runs):
     summary = runs['summaries'][0]
     for name in CORE:
-        assert summary['final_parameters'][name] == pytest.approx(summary['true_parameters'][name], rel=0.03)
+        assert summary['final_parameters'][name] == pytest.approx(summary['true_parameters'][name], rel=0.01)
+
+
+def test_the_graph_tracks_the_stroke_as_the_in_process_controller_does(runs):
+    """The controller node commands one period ahead (computational delay, compensated by the model's
+    prediction): the true position follows the reference as the in-process 1 ms controller does (12 um rms)."""
+    signals = read_bag(runs['summaries'][0]['bag']).recording.signals
+    error = signals['plant/position'] - signals['reference']
+    assert np.sqrt(np.mean(error ** 2)) < 15e-6
 
 
 def test_offline_identification_of_the_bag_gives_the_online_estimate(runs):
