@@ -27,6 +27,7 @@ DEFAULT_MIN_SAMPLES = 1000  # 0.1 s at 10 kHz
 DEFAULT_MAX_JUMP = 2.0
 _POSITIVE = ('resistance', 'inductance', 'emf_constant', 'mass')
 EFFECTS = {'coulomb_force': inverse.FC, 'spring_stiffness': inverse.KS, 'spring_center': inverse.XC}
+ADAPTED_EFFECTS = ('coulomb_force', 'spring_stiffness')  # what an online identifier estimates (online_effects.py)
 
 
 class InverseSystemController:
@@ -38,12 +39,14 @@ class InverseSystemController:
     +-supply_voltage. `update_parameters` offers it new identified parameters.
 
     effects: the model's Coulomb friction and spring, {'coulomb_force': N, 'spring_stiffness': N/m (either
-    sign), 'spring_center': m}, compensated by the law (inverse.py); none by default.
+    sign), 'spring_center': m}, compensated by the law (inverse.py); none by default. adapt_effects: take the
+    coulomb_force and spring_stiffness of accepted estimates too (an online identifier's, whose load force is
+    the total at x = 0: the spring's centre is then 0).
     """
 
     def __init__(self, params, *, bandwidth=DEFAULT_BANDWIDTH, damping=DEFAULT_DAMPING, control_period=1e-4,
                  supply_voltage=24.0, observer_bandwidth=DEFAULT_OBSERVER_BANDWIDTH,
-                 min_samples=DEFAULT_MIN_SAMPLES, max_jump=DEFAULT_MAX_JUMP, effects=None):
+                 min_samples=DEFAULT_MIN_SAMPLES, max_jump=DEFAULT_MAX_JUMP, effects=None, adapt_effects=False):
         if not (math.isfinite(control_period) and control_period > 0.0):
             raise ValueError(f'control_period must be positive, got {control_period!r}')
         if not (math.isfinite(supply_voltage) and supply_voltage > 0.0):
@@ -54,6 +57,7 @@ class InverseSystemController:
         self.supply_voltage = float(supply_voltage)
         self.bandwidth, self.damping = float(bandwidth), float(damping)
         self.min_samples, self.max_jump = min_samples, float(max_jump)
+        self.adapt_effects = bool(adapt_effects)
         self._c = np.empty(inverse.N_COEFFICIENTS)
         self._c[[inverse.K0, inverse.K1, inverse.K2]] = inverse.feedback_gains(bandwidth, damping)
         self._c[[inverse.L1, inverse.L2]] = inverse.observer_gains(observer_bandwidth, control_period)
@@ -76,6 +80,11 @@ class InverseSystemController:
             raise ValueError(f'coulomb_force must be >= 0, got {effects["coulomb_force"]!r}')
         for name, slot in EFFECTS.items():
             self._c[slot] = float(effects.get(name, 0.0))
+
+    @property
+    def effects(self):
+        """The effects the law compensates now, {'coulomb_force', 'spring_stiffness', 'spring_center'}."""
+        return {name: float(self._c[slot]) for name, slot in EFFECTS.items()}
 
     @property
     def parameters(self):
@@ -125,13 +134,18 @@ class InverseSystemController:
 
         Rejected, keeping the previous ones: fewer than `min_samples` behind the estimate, non-finite values,
         non-positive R, L, Km or m, negative B, a load force beyond the stall force Km U / R, or R, L, Km or
-        m moving by more than a factor `max_jump` from the values held. Returns whether it was taken.
+        m moving by more than a factor `max_jump` from the values held. Returns whether it was taken. With
+        adapt_effects, its coulomb_force (negative: 0) and spring_stiffness are taken with it.
         """
         reason = self._implausible(estimate, samples)
         if reason:
             self.rejections[reason] += 1
             return False
         self._set_parameters({**self._params, **{k: float(estimate[k]) for k in PARAMETER_NAMES if k in estimate}})
+        adapted = {k: float(estimate[k]) for k in ADAPTED_EFFECTS if k in estimate} if self.adapt_effects else {}
+        if adapted:
+            effects = {**self.effects, **adapted, 'spring_center': 0.0}
+            self.set_effects(dict(effects, coulomb_force=max(effects['coulomb_force'], 0.0)))
         self.accepted += 1
         return True
 
@@ -141,7 +155,8 @@ class InverseSystemController:
         new = {k: estimate[k] for k in PARAMETER_NAMES if k in estimate}
         if not new:
             return 'no parameters'
-        if not all(isinstance(v, (int, float, np.floating)) and math.isfinite(v) for v in new.values()):
+        checked = list(new.values()) + [estimate[k] for k in ADAPTED_EFFECTS if self.adapt_effects and k in estimate]
+        if not all(isinstance(v, (int, float, np.floating)) and math.isfinite(v) for v in checked):
             return 'non-finite'
         if any(new.get(k, 1.0) <= 0.0 for k in _POSITIVE) or new.get('damping', 0.0) < 0.0:
             return 'non-physical'

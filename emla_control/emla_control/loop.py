@@ -26,7 +26,8 @@ class LoopResult:
 
     recording: voltage (as commanded), current and position (as measured), reference, at the sample times.
     truth: the plant's true current, position and velocity at the same times (for evaluation).
-    frame_times: end time of each frame; estimates / std: the identifier's (NaN without one), covariance: its
+    frame_times: end time of each frame; estimates / std: the identifier's (NaN without one; with the parameters
+    of the effects it estimates online, if any), covariance: its
     (names, matrix) per frame (empty without one);
     model: the parameters the controller used in each frame; true_parameters: the plant's at each frame end.
     """
@@ -63,7 +64,9 @@ def run_closed_loop(plant, controller, reference, duration, *, sensor=None, iden
     signals = {name: np.empty(n) for name in ('voltage', 'current', 'position')}
     truth = {name: np.empty(n) for name in ('current', 'position', 'velocity')}
     frames = range(0, n, frame_samples)
-    log = {key: {name: np.full(len(frames), np.nan) for name in PARAMETER_NAMES}
+    estimated = PARAMETER_NAMES + tuple(getattr(identifier, 'effects', ()))  # with the effects estimated online
+    log = {key: {name: np.full(len(frames), np.nan) for name in (estimated if key in ('estimates', 'std')
+                                                                 else PARAMETER_NAMES)}
            for key in ('estimates', 'std', 'model', 'true_parameters')}
     covariance = []
     controller.reset(plant.position)

@@ -23,7 +23,7 @@ from emla_sim.effects import CoulombFriction, ParameterChange, ResistanceDrift, 
 from emla_sim.plant import Plant
 from emla_sim.sensor import Sensor, SensorConfig
 
-from .controller import DEFAULT_BANDWIDTH, DEFAULT_DAMPING, InverseSystemController
+from .controller import ADAPTED_EFFECTS, DEFAULT_BANDWIDTH, DEFAULT_DAMPING, InverseSystemController
 from .loop import FRAME_SAMPLES, run_closed_loop
 from .reference import StrokeReference
 
@@ -34,6 +34,7 @@ CASES = {
     'changed_adaptive': (True, True),
 }
 DEFAULT_CASES = {'adaptive': (False, True)}
+ONLINE_EFFECTS = ('coulomb_friction', 'return_spring')  # estimated online in a scenario's compensated cases
 SETTLING_BAND = 0.02  # settled: within 2 % of the stroke of the target until the next move
 
 
@@ -56,7 +57,7 @@ class Scenario:
     seed: int = 0
     cases: dict = dataclasses.field(default_factory=lambda: dict(CASES))
     model_effects: tuple = ()  # Effect of the actuator itself (from a model file), in every case
-    compensated: tuple = ()  # cases whose controller compensates the effects learned from the first case's record
+    compensated: tuple = ()  # cases whose identifier estimates ONLINE_EFFECTS too, compensated by the controller
     controller_effects: dict = dataclasses.field(default_factory=dict)  # the model's, compensated in every case
 
     def plant(self, changed=True):
@@ -86,13 +87,14 @@ class Scenario:
     def sensor(self):
         return Sensor(SensorConfig(sample_period=self.sample_period, seed=self.seed))
 
-    def controller(self, effects=None):
+    def controller(self, effects=None, adapt_effects=False):
         return InverseSystemController(self.params, bandwidth=self.bandwidth, damping=self.damping,
                                        control_period=self.sample_period,
-                                       supply_voltage=self.params.supply_voltage, effects=effects)
+                                       supply_voltage=self.params.supply_voltage, effects=effects,
+                                       adapt_effects=adapt_effects)
 
-    def identifier(self):
-        return OnlineIdentifier(self.sample_period, 'full', memory_time=self.memory_time)
+    def identifier(self, effects=()):
+        return OnlineIdentifier(self.sample_period, 'full', memory_time=self.memory_time, effects=effects)
 
     @property
     def graph_case(self):
@@ -104,13 +106,16 @@ class Scenario:
     def run_case(self, case, duration=None, frame_samples=None, effects=None):
         """The LoopResult of one case (a key of `cases`), over `duration` s (default: the scenario's), with the
         identifier and the adaptation every `frame_samples` samples (default: the scenario's), the controller
-        compensating `effects` (InverseSystemController's) if given."""
+        compensating `effects` (InverseSystemController's) if given; a compensated case's controller also takes
+        the friction and spring its identifier estimates online."""
         changed, adapt = self.cases[case]
-        return run_closed_loop(self.plant(changed), self.controller(effects or self.controller_effects or None),
+        online = case in self.compensated
+        return run_closed_loop(self.plant(changed), self.controller(effects or self.controller_effects or None,
+                                                                    adapt_effects=online),
                                self.reference,
                                self.duration if duration is None else duration, sensor=self.sensor(),
-                               identifier=self.identifier() if adapt else None, adapt=adapt,
-                               frame_samples=frame_samples or self.frame_samples)
+                               identifier=self.identifier(ONLINE_EFFECTS if online else ()) if adapt else None,
+                               adapt=adapt, frame_samples=frame_samples or self.frame_samples)
 
 
 @dataclasses.dataclass
@@ -118,7 +123,7 @@ class ScenarioResult:
     scenario: Scenario
     runs: dict  # case -> LoopResult
     metrics: dict  # case -> {rms_tracking_error, max_overshoot, settling_time, peak_current}
-    compensated_effects: dict = dataclasses.field(default_factory=dict)  # what compensated cases compensated
+    compensated_effects: dict = dataclasses.field(default_factory=dict)  # case -> final online effect estimates
 
     def to_json(self):
         out = {'scenario': self.scenario.name, 'cases': self.metrics}
@@ -148,8 +153,8 @@ SCENARIOS = {
         effects=(ResistanceDrift.fast(THERMAL_TIME_CONSTANT, thermal_resistance=THERMAL_RESISTANCE),)),
     'friction_and_spring': Scenario(
         'friction_and_spring', 'Table 1 actuator with 1 N of Coulomb friction and a 1500 N/m return spring; the '
-        'adaptive controller with the nominal model, then with the friction and spring that emla discrepancy '
-        'finds in the first case\'s record compensated',
+        'adaptive controller with the nominal model, then with the friction and spring estimated online along '
+        'with the nominal parameters and compensated',
         duration=1.0, evaluate_from=0.2, effects=(CoulombFriction(force=1.0), ReturnSpring(stiffness=1500.0)),
         cases={'adaptive_nominal_model': (True, True), 'adaptive_augmented_model': (True, True)},
         compensated=('adaptive_augmented_model',)),
@@ -175,38 +180,15 @@ def get(name):
 
 
 def run_scenario(name_or_scenario, cases=None):
-    """Run the scenario's cases (all by default); a ScenarioResult with the metrics of each.
-
-    A compensated case's controller compensates the effects the discrepancy workflow finds in the record of
-    the scenario's first case (which is run for it if it is not among `cases`)."""
+    """Run the scenario's cases (all by default); a ScenarioResult with the metrics of each, and the final
+    online estimates of the effects each compensated case compensates ({name: value, name_std: one-sigma})."""
     scenario = name_or_scenario if isinstance(name_or_scenario, Scenario) else get(name_or_scenario)
-    chosen = list(cases or scenario.cases)
-    first = next(iter(scenario.cases))
-    runs, learned = {}, {}
-    for case in chosen:
-        if case in scenario.compensated:
-            learning = runs.get(first) or scenario.run_case(first)
-            learned = learned or learned_effects(learning.recording)
-            runs[case] = scenario.run_case(case, effects=learned)
-        else:
-            runs[case] = scenario.run_case(case)
+    runs = {case: scenario.run_case(case) for case in cases or scenario.cases}
     metrics = {case: tracking_metrics(run, scenario.reference, scenario.evaluate_from) for case, run in runs.items()}
-    return ScenarioResult(scenario, runs, metrics, learned)
-
-
-def learned_effects(recording):
-    """The Coulomb friction and spring that `emla discrepancy` finds in `recording`, as the controller's
-    effects ({} when it finds neither)."""
-    from emla_identification.discrepancy import diagnose
-    final = diagnose(recording).final
-    effects = {}
-    for candidate, part in final.added_slices():
-        values = final.added[part]
-        if candidate.name == 'coulomb_friction':
-            effects['coulomb_force'] = max(float(values[0]), 0.0)
-        elif candidate.name == 'return_spring':
-            effects.update(spring_stiffness=float(values[0]), spring_center=float(candidate.center))
-    return effects
+    compensated = {case: {key: float(log[name][-1]) for name in ADAPTED_EFFECTS
+                          for key, log in ((name, run.estimates), (f'{name}_std', run.std))}
+                   for case, run in runs.items() if case in scenario.compensated}
+    return ScenarioResult(scenario, runs, metrics, compensated)
 
 
 def tracking_metrics(result, reference, start=0.0, end=None):

@@ -43,9 +43,10 @@ class RowMoments:
     """The LagMoments a regression's noise model needs, kept beside its estimator: of its rows z = [phi, y] and,
     if it is solved by instrumental variables, of its instruments. statistics() adds the estimator's state."""
 
-    def __init__(self, n, forgetting=1.0, instrumented=False):
+    def __init__(self, n, forgetting=1.0, instrumented=False, effects=()):
         self.rows = LagMoments(n + 1, forgetting)
         self.instruments = LagMoments(n, forgetting) if instrumented else None
+        self.effects = effects
 
     def update(self, z, zeta=None):
         """Rows z (m x (n + 1)) and, if instrumented, their instruments zeta (m x n)."""
@@ -55,7 +56,7 @@ class RowMoments:
 
     def statistics(self, theta, covariance):
         return Statistics(theta, covariance, self.rows.moments.copy(), self.rows.weight, self.rows.forgetting,
-                          None if self.instruments is None else self.instruments.moments.copy())
+                          None if self.instruments is None else self.instruments.moments.copy(), self.effects)
 
 
 _TILE = 512  # rows per tile of _lag_products: a tile's columns stay in the first-level cache
@@ -93,7 +94,8 @@ def _lag_products(tail, z, weights, moments):
 class Statistics:
     """State of one regression: theta and P (unscaled) as rls.py and offline.py keep them, and the LagMoments
     (moments, weight) of its rows z = [phi, y] for the noise model, and of its instruments (None: least
-    squares, the regressors are the instruments)."""
+    squares, the regressors are the instruments); effects: the online_effects columns after the regression's
+    own, if any."""
 
     theta: np.ndarray
     covariance: np.ndarray
@@ -101,6 +103,7 @@ class Statistics:
     weight: float
     forgetting: float
     instrument_moments: np.ndarray = None
+    effects: tuple = ()
 
     @functools.cached_property
     def information(self):

@@ -6,15 +6,20 @@ its own RecursiveLeastSquares over them (with its instruments, if it has any). T
 formed from the recursions' states by physical.physical, as greybox.identify forms them from the batch solution:
 with forgetting 1 the final estimate equals greybox.identify on the same samples (to rounding). After lost
 samples, gap() restarts the rows on the next frame, so that none spans the gap.
+
+Effects (a list of names and/or a model file's Model): those linear in their parameters are estimated along
+with the nominal ones, as extra columns of the mechanical regression (online_effects.py, which says which
+can and which cannot); their parameters follow the nominal ones in estimate() and values().
 """
 import math
 
 import numpy as np
 
 from .moments import RowMoments
+from .online_effects import EffectColumns, columns_for
 from .physical import physical, physical_values
 from .regressors import COLUMNS, INSTRUMENTED, SIGNALS, RowStream, regressions_for
-from .rls import RecursiveLeastSquares
+from .rls import RecursiveLeastSquares, forgetting_factor
 
 
 class OnlineIdentifier:
@@ -25,30 +30,46 @@ class OnlineIdentifier:
     (s); neither means no forgetting. update() costs about 1.5 us per sample (full model, frames of 100);
     estimate() about 0.5-2 ms, so call it at the rate the uncertainties are used; values() gives the parameters
     alone, without the noise model, for about half of that (what remains is tying h, physical.physical_values).
+    effects: effect names and/or a Model (its effects), estimated online (online_effects.py); an InputError
+    names those that cannot be.
     """
 
     def __init__(self, sample_period, model='full', *, forgetting=None, memory_time=None,
-                 initial_covariance=1e6, signals=SIGNALS['electrical']):
+                 initial_covariance=1e6, signals=SIGNALS['electrical'], effects=()):
         if not 0.0 < sample_period < math.inf:
             raise ValueError(f'sample period must be positive and finite, got {sample_period!r}')
         self.sample_period = float(sample_period)
         self.model = model
         self.kinds = regressions_for(model, signals)
         self._stream = RowStream(self.kinds, self.sample_period)
-        self._rls = {kind: RecursiveLeastSquares(len(COLUMNS[kind]), forgetting=1.0 if forgetting is None
-                                                 else forgetting, memory_time=memory_time,
+        forgetting = 1.0 if forgetting is None else forgetting
+        effects = (effects,) if isinstance(effects, str) else getattr(effects, 'effects', effects)
+        columns = columns_for(effects, forgetting_factor(forgetting, memory_time, self.sample_period))
+        self._effects = EffectColumns(columns, self.sample_period) if columns else None
+        self._effect_kind = self.kinds[-1]  # the mechanical (or force) regression takes the effects' columns
+        self._rls = {kind: RecursiveLeastSquares(len(COLUMNS[kind]) + (kind == self._effect_kind) * len(columns),
+                                                 forgetting=forgetting, memory_time=memory_time,
                                                  sample_period=self.sample_period,
                                                  initial_covariance=initial_covariance)
                      for kind in self.kinds}
         self.reset()
 
+    @property
+    def effects(self):
+        """The parameters of the effects estimated online (e.g. ('coulomb_force', 'spring_stiffness'))."""
+        return () if self._effects is None else tuple(c.parameter for c in self._effects.columns)
+
     def reset(self):
         """Forget everything: back to the prior, no samples."""
         for rls in self._rls.values():
             rls.reset()
-        self._moments = {kind: RowMoments(rls.n, rls.forgetting, kind in INSTRUMENTED)
+        self._moments = {kind: RowMoments(rls.n, rls.forgetting, kind in INSTRUMENTED,
+                                          self._effects.columns if kind == self._effect_kind and self._effects
+                                          else ())
                          for kind, rls in self._rls.items()}
         self._stream.reset()
+        if self._effects:
+            self._effects.restart()
         self._residual_rms = math.nan
 
     def gap(self):
@@ -56,6 +77,8 @@ class OnlineIdentifier:
         gap. The estimates and their statistics are kept (the noise model's lagged moments pair the few rows
         either side as neighbours: negligible among thousands)."""
         self._stream.restart()
+        if self._effects:
+            self._effects.restart()
 
     def update(self, voltage=None, current=None, position=None, *, force=None):
         """Feed one frame (1-D arrays of equal length of the identifier's signals); see gap() when it does not
@@ -64,6 +87,8 @@ class OnlineIdentifier:
         if any(given[name] is None for name in self._stream.signals):
             raise ValueError(f'the {self.model} identifier needs {", ".join(self._stream.signals)} in each frame')
         for kind, (phi, y, zeta) in self._stream.rows(given).items():
+            if kind == self._effect_kind and self._effects:
+                phi, y = self._with_effects(phi, y, given['position'])
             rls = self._rls[kind]
             errors = rls.update_block(phi, y, zeta)
             z = np.column_stack((phi, y))
@@ -75,6 +100,11 @@ class OnlineIdentifier:
                 # a-priori current error over beta = voltage-equation error (V)
                 with np.errstate(all='ignore'):  # NaN before beta is identified
                     self._residual_rms = float(np.sqrt(errors @ errors / len(errors)) / rls.theta[1])
+
+    def _with_effects(self, phi, y, position):
+        """The rows with the effects' columns; rows the part sticks through get a NaN output (skipped)."""
+        columns, stuck = self._effects.rows(position)
+        return np.hstack((phi, columns)), y if stuck is None else np.where(stuck, np.nan, y)
 
     @property
     def samples(self):

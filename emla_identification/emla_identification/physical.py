@@ -5,7 +5,8 @@ completely, so the coefficient that depends on h = R Ts / L (see regressors.py) 
 equations are solved for the reduced coefficients with that tie, for h from the electrical estimate, a few
 times until h settles. Stream and batch therefore give the same parameters from the same samples. The
 coefficients' covariance comes from the sensor-noise model (noise.py); the delta method carries it to the
-physical parameters, the regressions taken as independent.
+physical parameters, the regressions taken as independent. Effects estimated online (online_effects.py) add
+coefficients p / m after the mechanical regression's own; their parameters p follow as the load force does.
 """
 import numpy as np
 
@@ -28,21 +29,24 @@ def log_decay(alpha):
 
 
 def coil_parameters(vector, sample_period):
-    """R, L, Km, m, B, Fl from [alpha, beta, gamma, Km/m, B/m, Fl/m] along the last axis of `vector`."""
-    alpha, beta, gamma, km_over_m, b_over_m, fl_over_m = np.moveaxis(vector, -1, 0)
+    """R, L, Km, m, B, Fl (and the effects' p) from [alpha, beta, gamma, Km/m, B/m, Fl/m (, p/m ...)] along the
+    last axis of `vector`."""
+    alpha, beta, gamma, km_over_m, b_over_m, fl_over_m = np.moveaxis(vector[..., :6], -1, 0)
     h = log_decay(alpha)
     resistance = (1.0 - alpha) / beta
     km = gamma / beta
     # the intra-sample back-EMF rise acts as the extra mass Km^2 eta Ts / R (regressors.py)
     mass = km / km_over_m + km * km * emf_lag(h) * sample_period / resistance
-    return np.stack([resistance, resistance * sample_period / h, km, mass, km * b_over_m / km_over_m,
-                     km * fl_over_m / km_over_m], axis=-1)
+    nominal = np.stack([resistance, resistance * sample_period / h, km, mass, km * b_over_m / km_over_m,
+                        km * fl_over_m / km_over_m], axis=-1)
+    return np.concatenate((nominal, (km / km_over_m)[..., None] * vector[..., 6:]), axis=-1)
 
 
 def force_parameters(vector, sample_period):
-    """m, B, Fl from [1/m, B/m, Fl/m] along the last axis."""
-    inverse_mass, b_over_m, fl_over_m = np.moveaxis(vector, -1, 0)
-    return np.stack([1.0 / inverse_mass, b_over_m / inverse_mass, fl_over_m / inverse_mass], axis=-1)
+    """m, B, Fl (and the effects' p) from [1/m, B/m, Fl/m (, p/m ...)] along the last axis."""
+    inverse_mass, b_over_m, fl_over_m = np.moveaxis(vector[..., :3], -1, 0)
+    nominal = np.stack([1.0 / inverse_mass, b_over_m / inverse_mass, fl_over_m / inverse_mass], axis=-1)
+    return np.concatenate((nominal, vector[..., 3:] / inverse_mass[..., None]), axis=-1)
 
 
 def propagate(function, vector, covariance, sample_period):
@@ -57,7 +61,7 @@ def propagate(function, vector, covariance, sample_period):
 
 
 def physical(model, statistics, sample_period):
-    """(names, values, covariance) of `model`'s parameters from {regression kind: Statistics}."""
+    """(names, values, covariance) of `model`'s parameters (and the online effects') from {kind: Statistics}."""
     with np.errstate(all='ignore'):
         restricted = _restricted(statistics)
         variances = noise_variances(statistics, restricted, sample_period)
@@ -70,8 +74,9 @@ def physical(model, statistics, sample_period):
             start += len(part)
         names, function = _parameter_function(statistics)
         values, covariance = propagate(function, vector, covariance, sample_period)
-    keep = [names.index(n) for n in MODEL_PARAMETERS[model]]
-    return MODEL_PARAMETERS[model], values[keep], covariance[np.ix_(keep, keep)]
+    reported = _reported(model, statistics)
+    keep = [names.index(n) for n in reported]
+    return reported, values[keep], covariance[np.ix_(keep, keep)]
 
 
 def physical_values(model, statistics, sample_period):
@@ -80,20 +85,31 @@ def physical_values(model, statistics, sample_period):
         vector = np.concatenate([theta for _, theta in _restricted(statistics).values()])
         names, function = _parameter_function(statistics)
         values = function(vector[None], sample_period)[0]
-    return MODEL_PARAMETERS[model], values[[names.index(n) for n in MODEL_PARAMETERS[model]]]
+    reported = _reported(model, statistics)
+    return reported, values[[names.index(n) for n in reported]]
+
+
+def _effect_names(statistics):
+    """The parameters of the online effects' columns of the mechanical (or force) regression."""
+    kind = 'force' if 'force' in statistics else 'mechanical'
+    return tuple(e.parameter for e in statistics[kind].effects) if kind in statistics else ()
+
+
+def _reported(model, statistics):
+    return MODEL_PARAMETERS[model] + _effect_names(statistics)
 
 
 def _parameter_function(statistics):
     """(parameter names, function of the restricted coefficients) for these regressions."""
     if 'force' in statistics:
-        return MODEL_PARAMETERS['mechanical'], force_parameters
-    return PARAMETER_NAMES, coil_parameters
+        return MODEL_PARAMETERS['mechanical'] + _effect_names(statistics), force_parameters
+    return PARAMETER_NAMES + _effect_names(statistics), coil_parameters
 
 
 def _restricted(statistics):
     """{kind: (T, theta_r)}: each regression with its h-dependent coefficient tied, h from the electrical one."""
     if 'force' in statistics:
-        T = tie('force', 0.0)
+        T = tie('force', 0.0, len(statistics['force'].effects))
         return {'force': (T, statistics['force'].restrict(T))}
     electrical = statistics['electrical']
     h = log_decay(electrical.theta[0])
@@ -103,6 +119,6 @@ def _restricted(statistics):
         h, previous = log_decay(restricted['electrical'][1][0]), h
         if abs(h - previous) <= 1e-13 * h:
             break
-    T = tie('mechanical', h)
+    T = tie('mechanical', h, len(statistics['mechanical'].effects))
     restricted['mechanical'] = T, statistics['mechanical'].restrict(T)
     return restricted

@@ -151,14 +151,19 @@ def emf_lag(h):
     return np.where(closed, 0.5 / np.tanh(half) - 0.5 / half, np.where(h > 0.0, h / 12.0 - h ** 3 / 720.0, 0.0))
 
 
-def tie(kind, h):
-    """T (n_reduced x n) with coefficients = T' theta_reduced: ties the h-dependent coefficient of `kind`."""
+def tie(kind, h, extra=0):
+    """T (n_reduced x n) with coefficients = T' theta_reduced: ties the h-dependent coefficient of `kind`;
+    `extra` further columns (online_effects.py) are kept as they are."""
     eta = float(emf_lag(h))
     if kind == 'electrical':   # [alpha, beta, gamma] -> [alpha, beta, gamma, gamma eta]
-        return np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, eta]])
-    if kind == 'mechanical':   # [Km/m, B/m, Fl/m] -> [Km/m, eta Km/m, B/m, Fl/m]
-        return np.array([[1.0, eta, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
-    return np.eye(len(COLUMNS[kind]))
+        T = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, eta]])
+    elif kind == 'mechanical':   # [Km/m, B/m, Fl/m] -> [Km/m, eta Km/m, B/m, Fl/m]
+        T = np.array([[1.0, eta, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
+    else:
+        T = np.eye(len(COLUMNS[kind]))
+    if not extra:
+        return T
+    return np.block([[T, np.zeros((len(T), extra))], [np.zeros((extra, T.shape[1])), np.eye(extra)]])
 
 
 @functools.lru_cache(maxsize=32)
