@@ -10,7 +10,8 @@ The effects are the discrepancy candidates of the same names (discrepancy/candid
                     difference: its noise does not enter the column). The discrepancy candidate's play-operator
                     direction reads x_k-1 .. x_k+1, whose quantisation the output holds too: online that left Fc
                     8 % low. Rows slower than SLIDING_SPEED are skipped: there the part sticks, reverses or
-                    creeps, and the friction is whatever balances the other forces, not Fc sign(v).
+                    creeps, and the friction is whatever balances the other forces, not Fc sign(v) (under a
+                    dithered PID loop that hunts at rest, a threshold of 0.05 m/s left Fc twice too large).
   return_spring     k x: the spring's centre xc adds the constant -k xc, which merges with the load force,
                     so load_force is reported as Fl - k xc (the total at x = 0) and the spring's centre as 0.
   resistance_drift  no column: R(t) is followed by the forgetting (memory_time or forgetting < 1), which
