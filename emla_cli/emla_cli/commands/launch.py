@@ -15,7 +15,8 @@ from pathlib import Path
 
 from emla_core.errors import InputError
 
-from .output import emit_json
+from . import scenario_args
+from .output import emit_json, replace_bag
 
 HELP = 'Run the plant, sensor, identifier and controller nodes as a ROS 2 graph and record a bag.'
 
@@ -35,11 +36,10 @@ node pids) to --json or stdout. Scenarios (the graph runs the adaptive case):
 
 
 def add_arguments(parser):
-    parser.add_argument('scenario', nargs='?', default='default', help='scenario name (default: default; see above)')
-    parser.add_argument('--duration', type=float, metavar='S', help="simulated time, s (default: the scenario's, above)")
-    parser.add_argument('--model-file', metavar='M.yaml',
-                        help='run the actuator of this model file (its parameters and effects) instead')
-    parser.add_argument('--bag', metavar='DIR', help='bag directory to record (default: bags/<scenario>-<time>)')
+    scenario_args.add_arguments(parser)
+    parser.add_argument('--bag', metavar='DIR', help='bag directory to record, new or empty (default: '
+                                                     'bags/<scenario>-<time>)')
+    parser.add_argument('--force', action='store_true', help='replace DIR if it holds a bag already')
     parser.add_argument('--json', metavar='FILE', help='write the summary here (default: stdout)')
 
 
@@ -58,16 +58,12 @@ def _interrupt(signum, frame):
 
 def run(args):
     from emla_cli.launcher import LaunchError, launch, scenario_parameters
-    from emla_control import scenarios
 
-    scenario = scenarios.get(args.scenario)
-    if args.model_file:
-        from emla_core.model_file import read
-        scenario = scenario.with_model(read(args.model_file), args.model_file)
-    duration = scenario.duration if args.duration is None else args.duration
-    if not 0 < duration < 1e6:
-        raise InputError(f'--duration must be positive, got {duration}')
+    scenario, duration = scenario_args.scenario_and_duration(args)
     bag = Path(args.bag) if args.bag else default_bag(scenario.name)
+    replace_bag(bag, args.force)
+    if bag.exists() and (not bag.is_dir() or any(bag.iterdir())):
+        raise InputError(f'{bag}: exists and is not an empty directory; choose a new bag directory or --force')
     signal.signal(signal.SIGTERM, _interrupt)      # stop the graph as on Ctrl-C
     try:
         summary = launch(scenario.name, duration, bag, scenario_parameters(scenario))

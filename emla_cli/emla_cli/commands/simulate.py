@@ -13,8 +13,7 @@ the same samples.
 import sys
 import time
 
-from emla_core.errors import InputError
-
+from . import scenario_args
 from .output import replace_bag
 
 HELP = 'Simulate a scenario in-process and record it as a bag.'
@@ -32,11 +31,7 @@ parameter estimates with their full covariance every 10 ms. `emla play` can feed
 
 
 def add_arguments(parser):
-    parser.add_argument('scenario', nargs='?', default='default',
-                        help='scenario name (default: default; see above)')
-    parser.add_argument('--duration', type=float, metavar='S', help="simulated time, s (default: the scenario's, above)")
-    parser.add_argument('--model-file', metavar='M.yaml',
-                        help='run the actuator of this model file (its parameters and effects) instead')
+    scenario_args.add_arguments(parser)
     parser.add_argument('--bag', required=True, metavar='DIR', help='bag directory to write (new or empty)')
     parser.add_argument('--force', action='store_true', help='replace DIR if it holds a bag already')
 
@@ -95,16 +90,9 @@ def write_bag(result, path, scenario):
 
 
 def run(args):
-    from emla_control import scenarios
     from emla_core.topics import ESTIMATE_PERIOD
 
-    scenario = scenarios.get(args.scenario)
-    if args.model_file:
-        from emla_core.model_file import read
-        scenario = scenario.with_model(read(args.model_file), args.model_file)
-    duration = scenario.duration if args.duration is None else args.duration
-    if not 0 < duration < 1e6:
-        raise InputError(f'--duration must be positive, got {duration}')
+    scenario, duration = scenario_args.scenario_and_duration(args)
     replace_bag(args.bag, args.force)
     started = time.monotonic()
     # One sample more than the duration: the state the last voltage interval ends on is sampled too.
