@@ -82,6 +82,12 @@ def _read_frame_body(cdr, at, order):
     return (sec * 1_000_000_000 + nanosec, sample_period, samples), period_at + 16 + 8 * length
 
 
+def header_stamp_ns(cdr):
+    """The stamp a serialised message starts with (std_msgs/Header or builtin_interfaces/Time), in ns."""
+    sec, nanosec = struct.unpack_from('<iI' if cdr[1] == 1 else '>iI', cdr, 4)
+    return sec * 1_000_000_000 + nanosec
+
+
 def frame_cdr(stamp, sample_period, data):
     """The CDR bytes of frame_message(stamp, sample_period, data); an empty one padded to 36 bytes as rclpy pads
     it (a bag's reader may expect that)."""

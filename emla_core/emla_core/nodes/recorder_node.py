@@ -13,7 +13,6 @@ With `hold_start` (as `emla launch` runs it) the recorder subscribes to the plan
 (/emla/position, see common) only once each of its other topics has a matched publisher: the lockstep plant
 cannot start before the recorder hears every node, so the bag begins at t = 0.
 """
-import struct
 import sys
 import time
 
@@ -41,12 +40,6 @@ SPECS = [
     common.Spec('drain_time', 0.3, 'after SIGINT/SIGTERM, record until no message came for this long, s',
                 0.0, 10.0),
 ]
-
-
-def header_stamp_ns(cdr):
-    """The stamp a serialised message starts with (std_msgs/Header or builtin_interfaces/Time), in ns."""
-    sec, nanosec = struct.unpack_from('<iI' if cdr[1] == 1 else '>iI', cdr, 4)
-    return sec * 1_000_000_000 + nanosec
 
 
 class Recorder(common.EmlaNode):
@@ -80,7 +73,7 @@ class Recorder(common.EmlaNode):
 
         def receive(cdr):
             self.bag.add_topic(topic, name)
-            self.bag.write(topic, header_stamp_ns(cdr), cdr)
+            self.bag.write(topic, messages.header_stamp_ns(cdr), cdr)
             if topic == topics.TRUE_PARAMETERS_TOPIC:
                 truth = messages.estimate_values(deserialize_message(cdr, message_class))
                 self.bag.custom_data.update({f'true_{k}': repr(float(truth[k])) for k in PARAMETER_NAMES})
