@@ -102,7 +102,7 @@ class OnlineIdentifier:
                     self._residual_rms = float(np.sqrt(errors @ errors / len(errors)) / rls.theta[1])
 
     def _with_effects(self, phi, y, position):
-        """The rows with the effects' columns; rows the part sticks through get a NaN output (skipped)."""
+        """The rows with the effects' columns; the rows they skip (online_effects.py) get a NaN output."""
         columns, stuck = self._effects.rows(position)
         return np.hstack((phi, columns)), y if stuck is None else np.where(stuck, np.nan, y)
 
