@@ -148,3 +148,16 @@ def test_bad_arx_settings_end_the_identifier_with_one_line(tmp_path, arx, messag
                             capture_output=True, text=True, timeout=60, env=isolated_env())
     assert result.returncode == 2 and result.stderr.count('\n') == 1, result.stderr
     assert result.stderr.startswith('identifier: error: ') and message in result.stderr
+
+
+@pytest.mark.parametrize('settings, message', [
+    ({'effects': ['sensor_delay']}, 'cannot estimate online: sensor_delay'),
+    ({'effects': ['resistance_drift']}, 'resistance_drift is followed online by forgetting'),
+    ({'model_file': '/nonexistent/model.yaml'}, '/nonexistent/model.yaml'),
+])
+def test_effects_that_cannot_run_online_end_the_identifier_with_one_line(tmp_path, settings, message):
+    result = subprocess.run([EMLA, 'run', 'identifier', '--params-file', params_file(tmp_path, 'identifier',
+                                                                                    **settings)],
+                            capture_output=True, text=True, timeout=60, env=isolated_env())
+    assert result.returncode == 2 and result.stderr.count('\n') == 1, result.stderr
+    assert result.stderr.startswith('identifier: error: ') and message in result.stderr

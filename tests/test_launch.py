@@ -14,7 +14,8 @@ from mcap_ros2.reader import read_ros2_messages
 from rosbags.highlevel import AnyReader
 
 from emla_control import scenarios
-from emla_core.bag import read_bag, typestore
+from emla_core import messages
+from emla_core.bag import iter_messages, read_bag, typestore
 from ros_isolation import VENV_BIN, processes
 
 pytestmark = pytest.mark.timeout(300)
@@ -138,6 +139,23 @@ def test_offline_identification_of_the_bag_gives_the_online_estimate(runs):
     for name, value in runs['summaries'][0]['final_parameters'].items():
         assert offline['parameters'][name] == pytest.approx(value, rel=1e-6, abs=1e-9)
 
+
+
+def test_the_graph_estimates_friction_and_spring_online_and_compensates_them(tmp_path):
+    """friction_and_spring as a graph: the identifier node estimates the friction and the spring with the
+    nominal parameters (/emla/effects, recorded), the controller node compensates them as they come."""
+    summary = tmp_path / 'run.json'
+    subprocess.run([str(VENV_BIN / 'emla'), 'launch', 'friction_and_spring', '--duration', '1', '--bag',
+                    str(tmp_path / 'bag'), '--json', str(summary)], check=True, capture_output=True, timeout=240)
+    bag = json.loads(summary.read_text())['bag']
+    effects = [messages.effect_values(msg) for topic, _, _, msg in iter_messages(bag) if topic == '/emla/effects']
+    assert len(effects) == 100                                        # one with each estimate, every 10 ms
+    assert effects[-1]['coulomb_force'] == pytest.approx(1.0, rel=0.05)          # the plant's: 1 N
+    assert effects[-1]['spring_stiffness'] == pytest.approx(1500.0, rel=0.05)    # 1500 N/m
+    contents = read_bag(bag)
+    late = contents.recording.time >= 0.2
+    error = (contents.recording.signals['plant/position'] - contents.recording.signals['reference'])[late]
+    assert np.sqrt(np.mean(error ** 2)) < 25e-6   # 17 um; the nominal model's loop (no effects): 214 um
 
 def test_the_same_scenario_twice_gives_identical_samples(runs):
     first, second = (read_bag(s['bag']).recording.signals for s in runs['summaries'])

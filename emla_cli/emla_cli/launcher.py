@@ -366,6 +366,7 @@ def _wait_for_final(graph, monitor, executor, bar):
 def scenario_parameters(scenario):
     """{node: {parameter: value}} that make the graph run `scenario` (its graph_case). The control period
     stays the nodes' own (1 ms frames), as do the controller's gains tuned for it."""
+    from emla_control.scenarios import ONLINE_EFFECTS
     from emla_core.nodes import common
 
     changed, adaptive = scenario.cases[scenario.graph_case]
@@ -383,12 +384,14 @@ def scenario_parameters(scenario):
         plant['change_parameters'] = [change.parameter for change in scenario.changes]
         plant['change_factors'] = [float(change.factor) for change in scenario.changes]
     reference = scenario.reference
+    online = scenario.graph_case in scenario.compensated  # the friction and spring estimated online, compensated
     return {
         'plant': plant,
         'sensor': {'seed': scenario.seed},
-        'identifier': {'sample_period': scenario.sample_period, 'memory_time': scenario.memory_time},
+        'identifier': {'sample_period': scenario.sample_period, 'memory_time': scenario.memory_time,
+                       'effects': list(ONLINE_EFFECTS if online else ())},
         'controller': {**actuator, **scenario.controller_effects, 'sample_period': scenario.sample_period,
-                       'adaptive': adaptive,
+                       'adaptive': adaptive, 'adapt_effects': online,
                        'stroke': reference.stroke, 'reference_period': reference.period,
                        'transition': reference.transition},
     }

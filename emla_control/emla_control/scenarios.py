@@ -99,9 +99,9 @@ class Scenario:
     @property
     def graph_case(self):
         """The case the ROS graph (`emla launch`) and `emla simulate` run: the adaptive controller, on the
-        changed plant if there is one."""
+        changed plant if there is one, with the effects estimated online if a case has them."""
         adaptive = [case for case, (_, adapt) in self.cases.items() if adapt]
-        return max(adaptive, key=lambda case: self.cases[case][0])
+        return max(adaptive, key=lambda case: (self.cases[case][0], case in self.compensated))
 
     def run_case(self, case, duration=None, frame_samples=None, effects=None):
         """The LoopResult of one case (a key of `cases`), over `duration` s (default: the scenario's), with the

@@ -13,7 +13,7 @@ from builtin_interfaces.msg import Time
 
 from emla_core.parameters import PARAMETER_NAMES
 from emla_core.topics import SIGNALS
-from emla_msgs.msg import ArxModel, ParameterEstimate, SampleFrame
+from emla_msgs.msg import ArxModel, EffectEstimate, ParameterEstimate, SampleFrame
 
 
 def message_class(msgtype):
@@ -124,7 +124,8 @@ def read_signal_frames_cdr(cdr):
 
 def estimate_message(stamp, values, std=None, covariance=None, samples=0, residual_rms=float('nan')):
     """A ParameterEstimate stamped `stamp` (ns); covariance = (names, matrix) of the identified parameters
-    (the full matrix is stored, 6 x 6 in PARAMETER_NAMES order). What is not given is NaN."""
+    (the full matrix is stored, 6 x 6 in PARAMETER_NAMES order; other names, an effect's, are left to
+    effect_message). What is not given is NaN."""
     msg = ParameterEstimate(samples_used=int(samples), residual_rms=float(residual_rms))
     msg.header.stamp = time_msg(stamp)
     for name in PARAMETER_NAMES:
@@ -133,8 +134,10 @@ def estimate_message(stamp, values, std=None, covariance=None, samples=0, residu
     msg.std = [float(std.get(name, float('nan'))) for name in PARAMETER_NAMES]
     full = np.full((len(PARAMETER_NAMES),) * 2, np.nan)
     if covariance is not None:
-        index = [PARAMETER_NAMES.index(name) for name in covariance[0]]
-        full[np.ix_(index, index)] = covariance[1]
+        names, matrix = covariance
+        kept = [k for k, name in enumerate(names) if name in PARAMETER_NAMES]
+        index = [PARAMETER_NAMES.index(names[k]) for k in kept]
+        full[np.ix_(index, index)] = np.asarray(matrix)[np.ix_(kept, kept)]
     msg.covariance = full.ravel()
     return msg
 
@@ -152,6 +155,27 @@ def estimate_std(msg):
 def estimate_covariance(msg):
     """The 6 x 6 covariance of a ParameterEstimate (PARAMETER_NAMES order; NaN where unknown)."""
     return np.asarray(msg.covariance, dtype=float).reshape(len(PARAMETER_NAMES), len(PARAMETER_NAMES))
+
+
+# ---- emla_msgs/EffectEstimate ----
+
+def effect_message(stamp, values, std=None):
+    """An EffectEstimate stamped `stamp` (ns) of the effects' parameters {name: value} (and {name: one-sigma})."""
+    std = std or {}
+    msg = EffectEstimate(names=list(values), values=[float(v) for v in values.values()],
+                         std=[float(std.get(name, float('nan'))) for name in values])
+    msg.header.stamp = time_msg(stamp)
+    return msg
+
+
+def effect_values(msg):
+    """{name: value} of an EffectEstimate."""
+    return dict(zip(msg.names, (float(v) for v in msg.values)))
+
+
+def effect_std(msg):
+    """{name: one-sigma} of an EffectEstimate."""
+    return dict(zip(msg.names, (float(s) for s in msg.std)))
 
 
 # ---- emla_msgs/ArxModel ----

@@ -12,6 +12,7 @@ SIGNALS = ('voltage', 'current', 'position')   # the signals of the graph's fram
 SAMPLE_FRAME = 'emla_msgs/msg/SampleFrame'
 PARAMETER_ESTIMATE = 'emla_msgs/msg/ParameterEstimate'
 ARX_MODEL = 'emla_msgs/msg/ArxModel'
+EFFECT_ESTIMATE = 'emla_msgs/msg/EffectEstimate'
 SIGNAL_FRAMES = 'emla_msgs/msg/SignalFrames'
 TIME = 'builtin_interfaces/msg/Time'
 
@@ -28,6 +29,7 @@ COMMAND_TOPIC = signal_topic('voltage_command')                           # cont
 REFERENCE_TOPIC = signal_topic('reference')                               # the position the controller tracks
 PARAMETERS_TOPIC = signal_topic('parameters')                             # the identifier's online estimates
 ARX_MODEL_TOPIC = signal_topic('arx_model')                               # its online ARX model (model arx)
+EFFECTS_TOPIC = signal_topic('effects')                                   # its effects' parameters (with effects)
 TRUE_PARAMETERS_TOPIC = f'{NAMESPACE}plant/parameters'                    # the simulated plant's true parameters
 DONE_TOPIC = f'{NAMESPACE}plant/done'                                     # the end time of a run
 START_TOPIC = MEASURED_TOPICS['position']   # the plant's start barrier counts this topic's subscriptions
@@ -61,8 +63,11 @@ RECORDED = {
     REFERENCE_TOPIC: (SAMPLE_FRAME, 'frame'),
     TRUE_PARAMETERS_TOPIC: (PARAMETER_ESTIMATE, 'latched'),
     PARAMETERS_TOPIC: (PARAMETER_ESTIMATE, 'latched'),
+    EFFECTS_TOPIC: (EFFECT_ESTIMATE, 'latched'),
     DONE_TOPIC: (TIME, 'latched'),
 }
+# Recorded topics only some runs publish (an identifier with effects): a recorder does not wait for them.
+OPTIONAL = (EFFECTS_TOPIC,)
 # The suite's topics a run does not record, as above: the identifier's in ARX mode (a run's identifier is a
 # grey-box one, for the controller; the recorder's start barrier waits for a publisher of each recorded topic)
 # and the plant's frames for its sensor (recorded as PLANT_TOPICS).

@@ -54,7 +54,7 @@ def write_bag(result, path, scenario):
     """The LoopResult `result` as a bag at `path` (see the module doc)."""
     from emla_core import topics
     from emla_core.bag import BagWriter
-    from emla_core.messages import estimate_message, frame_message, time_msg
+    from emla_core.messages import effect_message, estimate_message, frame_message, time_msg
     from emla_core.parameters import PARAMETER_NAMES
 
     recording = result.recording
@@ -73,14 +73,19 @@ def write_bag(result, path, scenario):
     truth = {name: float(values[logged[-1][0]]) for name, values in result.true_parameters.items()}
     zero = dict.fromkeys(PARAMETER_NAMES, 0.0)
     with BagWriter(path, custom_data={'scenario': scenario, **{f'true_{k}': repr(v) for k, v in truth.items()}}) as bag:
+        effects = [name for name in result.estimates if name not in PARAMETER_NAMES]  # estimated online, if any
         for topic, (msgtype, _) in topics.RECORDED.items():
-            bag.add_topic(topic, msgtype)
+            if topic not in topics.OPTIONAL or effects:
+                bag.add_topic(topic, msgtype)
         for topic, (values, state, samples) in signals.items():
             for first, data in frames(values, samples, state):
                 bag.write_message(topic, start + first * step, frame_message(start + first * step, period, data))
         bag.write_message(topics.TRUE_PARAMETERS_TOPIC, start, estimate_message(
             start, {k: v[0] for k, v in result.true_parameters.items()}, zero))
         for f, stamp in logged:
+            if effects:
+                bag.write_message(topics.EFFECTS_TOPIC, stamp, effect_message(
+                    stamp, {k: result.estimates[k][f] for k in effects}, {k: result.std[k][f] for k in effects}))
             bag.write_message(topics.PARAMETERS_TOPIC, stamp, estimate_message(
                 stamp, {k: v[f] for k, v in result.estimates.items()}, {k: v[f] for k, v in result.std.items()},
                 result.covariance[f], samples=(stamp - start) // step))

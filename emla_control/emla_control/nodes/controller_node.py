@@ -9,7 +9,8 @@ it tracks goes out ahead, in frames of REFERENCE_FRAME periods. Adaptive: at eac
 `adaptation_period` (from the second on) it first waits for the estimate stamped one adaptation period
 earlier (see emla_core.nodes.common) and offers it to the controller's guard. Without a usable state for t (a
 bad frame, reported: see common) it holds the last voltage over the period from t + Tc, still published so
-the lockstep goes on.
+the lockstep goes on. With `adapt_effects` it takes the effect estimate of the same stamp (/emla/effects) with
+each estimate: the friction and spring the identifier estimates online are compensated like the model's.
 """
 import collections
 import copy
@@ -24,7 +25,7 @@ from emla_control.reference import StrokeReference
 from emla_core import messages, topics
 from emla_core.nodes import common
 from emla_core.parameters import ActuatorParameters
-from emla_msgs.msg import ParameterEstimate
+from emla_msgs.msg import EffectEstimate, ParameterEstimate
 
 BLOCK = 100  # control periods of reference evaluated at once
 # Control periods per /emla/reference frame: only a recorder reads them, and fewer, longer frames cost it less.
@@ -59,6 +60,8 @@ SPECS = [
     common.Spec('coulomb_force', 0.0, "the model's Coulomb friction, compensated by the law (0 = none), N", 0.0, 1e4),
     common.Spec('spring_stiffness', 0.0, "the model's spring k (x - x0), either sign (0 = none), N/m", -1e7, 1e7),
     common.Spec('spring_center', 0.0, "the model's spring rest position x0, m", -1.0, 1.0),
+    common.Spec('adapt_effects', False, 'adaptive: also take the Coulomb friction and spring stiffness the '
+                'identifier estimates online (/emla/effects; its load force is then the total at x = 0)'),
 ]
 
 
@@ -85,7 +88,7 @@ class ControllerNode(common.EmlaNode):
             model, bandwidth=p.bandwidth, damping=p.damping_ratio, control_period=p.control_period,
             supply_voltage=model.supply_voltage, observer_bandwidth=p.observer_bandwidth,
             min_samples=p.min_samples, max_jump=p.max_jump,
-            effects={name: getattr(p, name) for name in law.EFFECTS})
+            effects={name: getattr(p, name) for name in law.EFFECTS}, adapt_effects=p.adaptive and p.adapt_effects)
         warm_up(self.controller)
         self.reference = StrokeReference(p.stroke, p.reference_period, p.transition)
         self.period_ns = self.samples_per_period * self.step_ns
@@ -96,6 +99,7 @@ class ControllerNode(common.EmlaNode):
         self.samples = collections.deque()
         self.voltage = 0.0  # the latest command
         self.estimates = {}  # stamp -> ParameterEstimate
+        self.effect_estimates = {} if self.controller.adapt_effects else None  # stamp -> EffectEstimate
         self.started = False  # the law has had a usable sample
         self.commanded = False
         self.command = common.frame_publishers(self, {'voltage': topics.COMMAND_TOPIC,
@@ -104,6 +108,8 @@ class ControllerNode(common.EmlaNode):
                                        self.on_states, common.Faults(self), p.sample_period)
         if p.adaptive:
             self.create_subscription(ParameterEstimate, topics.PARAMETERS_TOPIC, self.on_estimate, ESTIMATE_QOS)
+        if self.effect_estimates is not None:
+            self.create_subscription(EffectEstimate, topics.EFFECTS_TOPIC, self.on_effects, ESTIMATE_QOS)
 
     def on_states(self, stamp, sample_period, frames):
         if frames is None:  # unusable: the state frame of a period ends on the first period start from its stamp
@@ -117,18 +123,27 @@ class ControllerNode(common.EmlaNode):
         self.estimates[topics.stamp_to_ns(msg.header.stamp)] = msg
         self.act()
 
+    def on_effects(self, msg):
+        self.effect_estimates[topics.stamp_to_ns(msg.header.stamp)] = msg
+        self.act()
+
     def act(self):
         while self.samples:
             t, current, position = self.samples[0]
             measured = math.isfinite(current) and math.isfinite(position)
             due = t - self.adaptation_ns if self.adaptation_ns else 0  # the stamp of the estimate taken at t, if any
             if measured and due > 0 and due % self.adaptation_ns == 0:
-                if due not in self.estimates:
+                if due not in self.estimates or self.effect_estimates is not None and due not in self.effect_estimates:
                     return  # wait for it
                 msg = self.estimates[due]
-                values = {k: v for k, v in messages.estimate_values(msg).items() if math.isfinite(v)}
-                self.controller.update_parameters(values, msg.samples_used)
+                values = messages.estimate_values(msg)
+                if self.effect_estimates is not None:
+                    values.update(messages.effect_values(self.effect_estimates[due]))
+                self.controller.update_parameters({k: v for k, v in values.items() if math.isfinite(v)},
+                                                  msg.samples_used)
             self.estimates = {stamp: msg for stamp, msg in self.estimates.items() if stamp > due}
+            if self.effect_estimates:
+                self.effect_estimates = {stamp: msg for stamp, msg in self.effect_estimates.items() if stamp > due}
             self.samples.popleft()
             self.control(t // self.period_ns, current, position, measured)
 

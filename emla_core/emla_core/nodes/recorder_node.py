@@ -10,8 +10,9 @@ Outside the loop, the recorder need not handle each message as it comes: it take
 (its POLL_PERIOD, see common.EmlaNode), which spares it a wake-up per message.
 
 With `hold_start` (as `emla launch` runs it) the recorder subscribes to the plant's start topic
-(/emla/position, see common) only once each of its other topics has a matched publisher: the lockstep plant
-cannot start before the recorder hears every node, so the bag begins at t = 0.
+(/emla/position, see common) only once each of its other topics (but the OPTIONAL ones of emla_core.topics)
+has a matched publisher: the lockstep plant cannot start before the recorder hears every node, so the bag
+begins at t = 0.
 """
 import sys
 import time
@@ -53,8 +54,8 @@ class Recorder(common.EmlaNode):
             raise InputError('parameter `bag` (output directory) is required')
         self.bag = BagWriter(self.config.bag, split_size=self.config.split_size,
                              custom_data={'scenario': self.config.scenario})
-        self.topic_subscriptions = [self._subscribe(topic) for topic in TOPICS
-                                    if topic != topics.START_TOPIC or not self.config.hold_start]
+        self.topic_subscriptions = {topic: self._subscribe(topic) for topic in TOPICS
+                                    if topic != topics.START_TOPIC or not self.config.hold_start}
         if self.config.hold_start:
             self.holding = self.create_timer(0.02, self._join_start)
         self.get_logger().info(f'recording {len(TOPICS)} topics into {self.config.bag}')
@@ -63,7 +64,9 @@ class Recorder(common.EmlaNode):
         return self.create_subscription(TOPICS[topic], topic, self._receiver(topic, TOPICS[topic]), QOS, raw=True)
 
     def _join_start(self):
-        if all(s.get_publisher_count() for s in self.topic_subscriptions):
+        # (an optional topic's publisher, if any, is the identifier's, matched with its /emla/parameters)
+        if all(s.get_publisher_count() for topic, s in self.topic_subscriptions.items()
+               if topic not in topics.OPTIONAL):
             self.holding.cancel()
             self._subscribe(topics.START_TOPIC)
             self.get_logger().info(f'every publisher matched; subscribed to {topics.START_TOPIC}')

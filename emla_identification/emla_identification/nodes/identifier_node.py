@@ -2,7 +2,8 @@
 or with model `arx` a black-box ARX(na, nb, nk) model of one signal's response to another (emla_identification.arx,
 the recursion of `emla identify --model arx`: from theta = 0 and P = 1e6 I, with the same forgetting).
 
-Publishes /emla/parameters (latched; with model arx /emla/arx_model instead: a, b, poles, zeros, fit and MSE)
+Publishes /emla/parameters (latched; with model arx /emla/arx_model instead: a, b, poles, zeros, fit and MSE;
+with `effects` or a `model_file` also /emla/effects, the effects' parameters estimated along, same stamps)
 at every multiple of `publish_period` that ends a control period, stamped with the end of the data used, and a
 final estimate at the end time /emla/plant/done announces (see emla_core.nodes.common); /diagnostics with each
 estimate. Bad frames (see common) are reported and skipped. Non-finite samples: the grey-box estimator gets only
@@ -30,7 +31,7 @@ from emla_core.nodes import common
 from emla_identification.arx import DEFAULT_ORDERS, DEFAULT_SIGNALS, ArxEstimator
 from emla_identification.online import OnlineIdentifier
 from emla_identification.physical import MODEL_PARAMETERS
-from emla_msgs.msg import ArxModel, ParameterEstimate
+from emla_msgs.msg import ArxModel, EffectEstimate, ParameterEstimate
 
 SPECS = [
     common.Spec('sample_period', 1e-4, 'sample period Ts of the inputs (the grid of input_topics), s', 1e-6, 1e-2),
@@ -44,6 +45,12 @@ SPECS = [
                 'model arx: [na, nb, nk], the output lags, input lags and input delay (samples)'),
     common.Spec('input', DEFAULT_SIGNALS[0], f'model arx: the input signal u, one of {list(topics.SIGNALS)}'),
     common.Spec('output', DEFAULT_SIGNALS[1], f'model arx: the output signal y, one of {list(topics.SIGNALS)}'),
+    common.Spec('effects', Parameter.Type.STRING_ARRAY,
+                'grey box: effects estimated online with the nominal parameters, published on /emla/effects: '
+                'coulomb_friction, return_spring (resistance_drift: followed by the memory; see '
+                'emla_identification.online_effects for why others cannot run online)'),
+    common.Spec('model_file', '', 'grey box: a model file (emla discrepancy --model-out) whose effects to estimate '
+                                  'online, as `effects` (which adds to them)'),
     common.Spec('publish_period', topics.ESTIMATE_PERIOD,
                 'publish an estimate at multiples of this time (of the samples: simulated, or the inputs\' stamps), s',
                 1e-6, 1e6),
@@ -94,6 +101,15 @@ def arx_signals(p):
     return p.input, p.output
 
 
+def online_effects(p):
+    """The effects to estimate online: those of the model file, then the `effects` parameter's."""
+    effects = []
+    if p.model_file:
+        from emla_core.model_file import read
+        effects = [effect.candidate for effect in read(p.model_file).effects]
+    return tuple(dict.fromkeys(effects + list(p.effects)))
+
+
 def standard_inputs(mapping, signals):
     """{signal: TopicSignal} of the input_topics parameter, which must map `signals`; {} if it is empty."""
     if not mapping:
@@ -121,8 +137,9 @@ class IdentifierNode(common.EmlaNode):
             self.feed = self.feed_arx
             self.prediction_error = math.nan  # the latest finite one
         else:
-            self.identifier = OnlineIdentifier(model=p.model, **memory)
-            warm_up(OnlineIdentifier(model=p.model, **memory))
+            effects = online_effects(p)
+            self.identifier = OnlineIdentifier(model=p.model, effects=effects, **memory)
+            warm_up(OnlineIdentifier(model=p.model, effects=effects, **memory))
             self.feed = self.identifier.update
         self.sample_period = p.sample_period
         self.step = topics.to_ns(p.sample_period)
@@ -133,6 +150,8 @@ class IdentifierNode(common.EmlaNode):
         self.end = None  # end of the run, from /emla/plant/done
         self.estimates = self.create_publisher(ArxModel, topics.ARX_MODEL_TOPIC, common.LATCHED_QOS) if self.arx \
             else self.create_publisher(ParameterEstimate, topics.PARAMETERS_TOPIC, common.LATCHED_QOS)
+        self.effect_estimates = None if self.arx or not self.identifier.effects else \
+            self.create_publisher(EffectEstimate, topics.EFFECTS_TOPIC, common.LATCHED_QOS)
         self.diagnostics = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS_TOPIC, common.DIAGNOSTICS_QOS)
         faults = common.Faults(self)
         self.measured = common.AlignedSamples(
@@ -193,6 +212,10 @@ class IdentifierNode(common.EmlaNode):
     def publish_parameters(self):
         """Publish the grey-box estimate now; its diagnostic status."""
         values, std, (names, covariance) = estimate(self.identifier)
+        if self.effect_estimates:  # first: a controller that adapts them takes the two together
+            effects = self.identifier.effects
+            self.effect_estimates.publish(messages.effect_message(self.covered, {k: values[k] for k in effects},
+                                                                  {k: std[k] for k in effects}))
         self.estimates.publish(messages.estimate_message(self.covered, values, std, (names, covariance),
                                                        self.identifier.samples, self.identifier.residual_rms))
         identified = sum(math.isfinite(v) for v in values.values())
