@@ -5,10 +5,11 @@ the recursion of `emla identify --model arx`: from theta = 0 and P = 1e6 I, with
 Publishes /emla/parameters (latched; with model arx /emla/arx_model instead: a, b, poles, zeros, fit and MSE;
 with `effects` or a `model_file` also /emla/effects, the effects' parameters estimated along, same stamps)
 at every multiple of `publish_period` that ends a control period, stamped with the end of the data used, and a
-final estimate at the end time /emla/plant/done announces (see emla_core.nodes.common); /diagnostics with each
-estimate. Bad frames (see common) are reported and skipped. Non-finite samples: the grey-box estimator gets only
-finite samples, and a gap() wherever some are missing; the ARX one gets them in place and skips the regression
-rows they are in (as identify_arx does), so its last model equals `emla identify --model arx` on the same data.
+final estimate at the end time /emla/plant/done announces (see emla_core.nodes.common); /diagnostics with the
+first estimate, then every second of sample time, and with the final one. Bad frames (see common) are
+reported and skipped. Non-finite samples: the grey-box estimator gets only finite samples, and a gap() wherever
+some are missing; the ARX one gets them in place and skips the regression rows they are in (as identify_arx
+does), so its last model equals `emla identify --model arx` on the same data.
 
 Its inputs are the measured /emla/ SampleFrames, or with `input_topics` a real drive's topics of standard
 message types, e.g. ['voltage=/drive/voltage', 'current=/drive/current', 'position=/joint_states:position[slider]']
@@ -61,6 +62,9 @@ SPECS = [
                 'header stamp, else when handled (jittery), to the nearest sample instant). rclpy takes ~6-10k '
                 'messages/s, so one sample per message suits rates up to ~1-2 kHz'),
 ]
+
+
+DIAGNOSTICS_STEP = 1_000_000_000  # ns of sample time between /diagnostics statuses (ROS's usual 1 Hz)
 
 
 def estimate(identifier):
@@ -123,6 +127,9 @@ def standard_inputs(mapping, signals):
 
 class IdentifierNode(common.EmlaNode):
     NAME = 'identifier'
+    # Outside the loop (an adaptive controller takes each estimate an adaptation period after its stamp), it
+    # takes the frames that came every POLL_PERIOD instead of waking for each of them (see common.EmlaNode).
+    POLL_PERIOD = 0.003  # s
 
     def __init__(self):
         super().__init__()
@@ -130,6 +137,8 @@ class IdentifierNode(common.EmlaNode):
         self.arx = arx_signals(p)
         self.signals = self.arx or topics.SIGNALS  # what the estimator is fed, in its update()'s order
         self.inputs = standard_inputs(p.input_topics, self.signals)
+        if self.inputs:
+            self.POLL_PERIOD = None  # unstamped messages are timed when handled: each as it comes
         memory = dict(sample_period=p.sample_period, forgetting=p.forgetting, memory_time=p.memory_time or None)
         if self.arx:
             self.identifier = ArxEstimator(*p.orders, **memory)
@@ -147,6 +156,7 @@ class IdentifierNode(common.EmlaNode):
         self.covered = 0  # ns: the estimator has used every (usable) voltage interval before this time
         self.fed = None  # ns: the end of the samples fed last (the next ones follow on from there, or a gap)
         self.published = None  # stamp of the latest estimate
+        self.diagnosed = None  # stamp of the latest /diagnostics status
         self.end = None  # end of the run, from /emla/plant/done
         self.estimates = self.create_publisher(ArxModel, topics.ARX_MODEL_TOPIC, common.LATCHED_QOS) if self.arx \
             else self.create_publisher(ParameterEstimate, topics.PARAMETERS_TOPIC, common.LATCHED_QOS)
@@ -193,15 +203,18 @@ class IdentifierNode(common.EmlaNode):
 
     def publish(self):
         status = self.publish_arx() if self.arx else self.publish_parameters()
-        self.diagnostics.publish(DiagnosticArray(header=Header(stamp=messages.time_msg(self.covered)), status=[status]))
+        if self.diagnosed is None or self.covered - self.diagnosed >= DIAGNOSTICS_STEP or self.covered == self.end:
+            self.diagnostics.publish(DiagnosticArray(header=Header(stamp=messages.time_msg(self.covered)),
+                                                     status=[status()]))
+            self.diagnosed = self.covered
         self.published = self.covered
 
     def publish_arx(self):
-        """Publish the ARX model now; its diagnostic status."""
+        """Publish the ARX model now; a function that gives its diagnostic status."""
         model, samples = self.identifier.model, self.identifier.rls.samples
         self.estimates.publish(messages.arx_message(self.covered, model, self.arx, self.sample_period, samples,
                                                     self.prediction_error))
-        return DiagnosticStatus(
+        return lambda: DiagnosticStatus(
             level=DiagnosticStatus.OK if samples else DiagnosticStatus.WARN, name='emla/identifier', hardware_id='emla',
             message=f'ARX{model.orders} of {self.arx[1]} from {self.arx[0]}: {samples} samples', values=[
                 KeyValue(key='largest_pole_modulus', value=f'{max(np.abs(model.poles), default=0.0):.9g}'),
@@ -210,7 +223,7 @@ class IdentifierNode(common.EmlaNode):
                 KeyValue(key='prediction_error', value=f'{self.prediction_error:g}')])
 
     def publish_parameters(self):
-        """Publish the grey-box estimate now; its diagnostic status."""
+        """Publish the grey-box estimate now; a function that gives its diagnostic status."""
         values, std, (names, covariance) = estimate(self.identifier)
         if self.effect_estimates:  # first: a controller that adapts them takes the two together
             effects = self.identifier.effects
@@ -219,7 +232,7 @@ class IdentifierNode(common.EmlaNode):
         self.estimates.publish(messages.estimate_message(self.covered, values, std, (names, covariance),
                                                        self.identifier.samples, self.identifier.residual_rms))
         identified = sum(math.isfinite(v) for v in values.values())
-        return DiagnosticStatus(
+        return lambda: DiagnosticStatus(
             level=DiagnosticStatus.OK if identified == len(values) else DiagnosticStatus.WARN,
             name='emla/identifier', hardware_id='emla',
             message=f'{identified} of {len(values)} parameters identified', values=[
