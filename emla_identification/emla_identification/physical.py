@@ -8,6 +8,8 @@ coefficients' covariance comes from the sensor-noise model (noise.py); the delta
 physical parameters, the regressions taken as independent. Effects estimated online (online_effects.py) add
 coefficients p / m after the mechanical regression's own; their parameters p follow as the load force does.
 """
+import math
+
 import numpy as np
 
 from emla_core.parameters import PARAMETER_NAMES
@@ -25,6 +27,8 @@ _TIE_ITERATIONS = 6     # h settles to rounding level in 3-5 (the tie depends on
 
 def log_decay(alpha):
     """h = -ln(alpha), NaN unless 0 < alpha < 1 (elementwise)."""
+    if isinstance(alpha, float):  # a scalar (the tie's iteration): math, not numpy
+        return -math.log(alpha) if 0.0 < alpha < 1.0 else math.nan
     return np.where((alpha > 0.0) & (alpha < 1.0), -np.log(np.where(alpha > 0.0, alpha, 1.0)), np.nan)
 
 

@@ -48,6 +48,7 @@ column, ~0.1 % of the effect), whatever the loop does with them. The mechanical 
 squares: its output, the second difference of position, is not fed back into its regressors.
 """
 import functools
+import math
 
 import numpy as np
 
@@ -145,6 +146,8 @@ def emf_lag(h):
     Both the back-EMF weighting of the electrical equation and the antisymmetric part of the exponential
     current shape in the mechanical one reduce to this function. Elementwise on arrays.
     """
+    if isinstance(h, float):  # a scalar (the tie, at every online estimate): math is 10x faster than numpy here
+        return 0.5 / math.tanh(0.5 * h) - 1.0 / h if h > 1e-2 else h / 12.0 - h ** 3 / 720.0 if h > 0.0 else 0.0
     h = np.asarray(h, dtype=float)
     closed = h > 1e-2  # below, the closed form loses digits to cancellation; NaN compares False
     half = 0.5 * np.where(closed, h, 1.0)
