@@ -12,12 +12,17 @@ out=bags/demo-$(date +%Y%m%d-%H%M%S)
 mkdir -p "$out"
 
 "$EMLA" launch default --duration "$DURATION" --bag "$out/bag" --json "$out/launch.json"
-"$EMLA" identify "$out/bag" --json "$out/identify.json" --plot "$out/identify.png"
-"$PY" -m emla_cli.estimate_plot "$out/bag" "$out/identify.json" "$out/estimates.png"
-
-"$PY" - "$out/launch.json" "$out/identify.json" <<'EOF'
+# The offline identification (as `emla identify BAG --json F --plot F.png`), the estimates plot and the table in
+# one Python process: each interpreter start with numpy, numba and matplotlib costs about a second.
+"$PY" - "$out" <<'EOF'
 import json, sys
-launch, offline = (json.load(open(path)) for path in sys.argv[1:])
+from emla_cli.cli import main as emla
+from emla_cli.estimate_plot import plot_estimates
+out = sys.argv[1]
+if emla(['identify', f'{out}/bag', '--json', f'{out}/identify.json', '--plot', f'{out}/identify.png']):
+    sys.exit(1)
+launch, offline = (json.load(open(f'{out}/{name}.json')) for name in ('launch', 'identify'))
+plot_estimates(f'{out}/bag', offline, f'{out}/estimates.png')
 print(f"\n{launch['duration']:g} s simulated in {launch['wall_time']:.1f} s wall "
       f"(real-time factor {launch['realtime_factor']}); {offline['samples']} samples recorded")
 print(f"{'':14}{'true':>12}{'online':>12}{'offline':>12}")
