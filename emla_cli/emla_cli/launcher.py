@@ -219,7 +219,8 @@ def remove_unused_shm(names):
 # ---- a launch: the four nodes and the recorder, until the identifier's final estimate is recorded ----
 
 NODES = ('plant', 'sensor', 'identifier', 'controller')
-START_SUBSCRIBERS = 3        # of /emla/position before the plant starts: controller, identifier, recorder
+START_SUBSCRIBERS = 1        # of /emla/position before the plant starts: the recorder
+FRAMES_SUBSCRIBERS = 2       # and of /emla/frames: the controller and the identifier (measured_frames)
 DONE_SUBSCRIBERS = 3         # of /emla/plant/done: identifier, recorder and the launcher itself (a discovery
                              # late by one announcement period would otherwise miss the whole run)
 STALL_TIMEOUT = 60.0         # s without simulated progress (start-up included) before the launch gives up
@@ -315,6 +316,7 @@ def launch(scenario, duration, bag, node_parameters):
     started = time.monotonic()
     parameters = {**node_parameters, 'plant': {**node_parameters.get('plant', {}), 'duration': float(duration),
                                                'start_subscribers': START_SUBSCRIBERS,
+                                               'frames_subscribers': FRAMES_SUBSCRIBERS,
                                                'done_subscribers': DONE_SUBSCRIBERS},
                   'recorder': {'bag': str(bag), 'scenario': scenario, 'hold_start': True}}
     with reserved_domain() as domain, tempfile.TemporaryDirectory(prefix='emla-launch-') as tmp, \
@@ -389,9 +391,10 @@ def scenario_parameters(scenario):
         'plant': plant,
         'sensor': {'seed': scenario.seed},
         'identifier': {'sample_period': scenario.sample_period, 'memory_time': scenario.memory_time,
+                       'measured_frames': True,
                        'effects': list(ONLINE_EFFECTS if online else ())},
         'controller': {**actuator, **scenario.controller_effects, 'sample_period': scenario.sample_period,
-                       'adaptive': adaptive, 'adapt_effects': online,
+                       'adaptive': adaptive, 'adapt_effects': online, 'measured_frames': True,
                        'stroke': reference.stroke, 'reference_period': reference.period,
                        'transition': reference.transition},
     }

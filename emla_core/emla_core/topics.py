@@ -25,6 +25,7 @@ def signal_topic(name):
 PLANT_TOPICS = {name: f'{NAMESPACE}plant/{name}' for name in SIGNALS}      # true values (plant), recorded
 PLANT_FRAMES_TOPIC = f'{NAMESPACE}plant/frames'                           # the same per period in one message (sensor)
 MEASURED_TOPICS = {name: signal_topic(name) for name in SIGNALS}          # sampled values (sensor)
+MEASURED_FRAMES_TOPIC = signal_topic('frames')                            # the same per period in one message
 COMMAND_TOPIC = signal_topic('voltage_command')                           # controller -> plant
 REFERENCE_TOPIC = signal_topic('reference')                               # the position the controller tracks
 PARAMETERS_TOPIC = signal_topic('parameters')                             # the identifier's online estimates
@@ -70,8 +71,9 @@ RECORDED = {
 OPTIONAL = (EFFECTS_TOPIC,)
 # The suite's topics a run does not record, as above: the identifier's in ARX mode (a run's identifier is a
 # grey-box one, for the controller; the recorder's start barrier waits for a publisher of each recorded topic)
-# and the plant's frames for its sensor (recorded as PLANT_TOPICS).
-UNRECORDED = {ARX_MODEL_TOPIC: (ARX_MODEL, 'latched'), PLANT_FRAMES_TOPIC: (SIGNAL_FRAMES, 'frame')}
+# and the frames of each period in one message, for the loop's nodes (recorded as PLANT_TOPICS, MEASURED_TOPICS).
+UNRECORDED = {ARX_MODEL_TOPIC: (ARX_MODEL, 'latched'), PLANT_FRAMES_TOPIC: (SIGNAL_FRAMES, 'frame'),
+              MEASURED_FRAMES_TOPIC: (SIGNAL_FRAMES, 'frame')}
 
 
 def qos_kind(topic, msgtype):

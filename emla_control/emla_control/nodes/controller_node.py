@@ -48,6 +48,8 @@ SPECS = [
     common.Spec('reference_period', StrokeReference.period, 'reference out-and-back period, s', 1e-4, 1e3),
     common.Spec('transition', StrokeReference.transition, 'reference move duration (<= half a period), s',
                 1e-5, 1e3),
+    common.Spec('measured_frames', False, 'take the measured frames of each period in one message on /emla/frames '
+                                          '(as `emla launch` runs it) instead of /emla/current and /emla/position'),
     common.Spec('adaptive', True, 'take the identifier estimates (true) or keep the initial model (false)'),
     common.Spec('adaptation_period', topics.ESTIMATE_PERIOD,
                 "take an estimate at multiples of this (a multiple of the identifier's publish_period), s",
@@ -104,8 +106,12 @@ class ControllerNode(common.EmlaNode):
         self.commanded = False
         self.command = common.frame_publishers(self, {'voltage': topics.COMMAND_TOPIC,
                                                       'reference': topics.REFERENCE_TOPIC})
-        self.states = common.FrameSets(self, {name: topics.MEASURED_TOPICS[name] for name in ('current', 'position')},
-                                       self.on_states, common.Faults(self), p.sample_period)
+        self.states = common.FrameSets(
+            self, {name: f'{topics.MEASURED_FRAMES_TOPIC} {name}' if p.measured_frames else topics.MEASURED_TOPICS[name]
+                   for name in ('current', 'position')},
+            self.on_states, common.Faults(self), p.sample_period, subscribe=not p.measured_frames)
+        if p.measured_frames:
+            common.subscribe_signal_frames(self, topics.MEASURED_FRAMES_TOPIC, self.states)
         if p.adaptive:
             self.create_subscription(ParameterEstimate, topics.PARAMETERS_TOPIC, self.on_estimate, ESTIMATE_QOS)
         if self.effect_estimates is not None:

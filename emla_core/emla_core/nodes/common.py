@@ -118,10 +118,10 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rclpy.signals import SignalHandlerOptions
 
 from emla_core.errors import InputError
-from emla_core.messages import message_class, read_frame_cdr
+from emla_core.messages import message_class, read_frame_cdr, read_signal_frames_cdr
 from emla_core.parameters import PARAMETER_UNITS, TABLE1
 from emla_core.topics import DIAGNOSTICS_TOPIC, QOS, SAMPLE_FRAME, START_TOPIC, to_ns
-from emla_msgs.msg import SampleFrame
+from emla_msgs.msg import SampleFrame, SignalFrames
 
 
 def qos_profile(kind):
@@ -207,6 +207,20 @@ def subscribe_frames(node, topics, receive):
         timer = node.create_timer(DISCOVERY_PERIOD, join, clock=STEADY_CLOCK)
 
 
+def subscribe_signal_frames(node, topic, inputs):
+    """Subscribe to a SignalFrames topic (raw), feeding each of its frames to `inputs` (a FrameSets or an
+    AlignedSamples made with subscribe=False) by receive(): one delivery for the signals it needs, where their
+    own topics would take one each. The empty voltage frame of the first message (stamped as its state frames:
+    the state at t = 0 alone) is not a frame."""
+    def receive(cdr):
+        frames = read_signal_frames_cdr(cdr)
+        for name in inputs.names:
+            stamp, period, samples = frames[name]
+            if len(samples) or stamp != frames['current'][0]:
+                inputs.receive(name, stamp, samples, period)
+    return node.create_subscription(SignalFrames, topic, receive, FRAME_QOS, raw=True)
+
+
 class FrameSets:
     """Subscribes to frame topics {name: topic}; calls on_set(stamp_ns, sample_period, {name: array}) once
     every topic has delivered its frame with that stamp (in stamp order: each topic is in order). With
@@ -228,6 +242,11 @@ class FrameSets:
         self._pending = {}  # stamp -> {name: (samples, sample_period), or None if unusable}
         if subscribe:
             subscribe_frames(node, topics, self.receive_cdr)
+
+    @property
+    def names(self):
+        """The inputs' names."""
+        return tuple(self._topics)
 
     def receive_cdr(self, name, cdr):
         """A serialised frame of input `name`."""
@@ -292,6 +311,11 @@ class AlignedSamples:
                         for name, topic in topics.items()}
         if subscribe:
             subscribe_frames(node, topics, lambda name, cdr: self._frames[name].receive_cdr(name, cdr))
+
+    @property
+    def names(self):
+        """The inputs' names."""
+        return tuple(self._queues)
 
     def receive(self, name, stamp, samples, period):
         """A frame of input `name` (see FrameSets.receive)."""

@@ -46,6 +46,8 @@ SPECS = [
                 'model arx: [na, nb, nk], the output lags, input lags and input delay (samples)'),
     common.Spec('input', DEFAULT_SIGNALS[0], f'model arx: the input signal u, one of {list(topics.SIGNALS)}'),
     common.Spec('output', DEFAULT_SIGNALS[1], f'model arx: the output signal y, one of {list(topics.SIGNALS)}'),
+    common.Spec('measured_frames', False, 'take the measured frames of each period in one message on /emla/frames '
+                                          '(as `emla launch` runs it) instead of /emla/{voltage,current,position}'),
     common.Spec('effects', Parameter.Type.STRING_ARRAY,
                 'grey box: effects estimated online with the nominal parameters, published on /emla/effects: '
                 'coulomb_friction, return_spring (resistance_drift: followed by the memory; see '
@@ -164,12 +166,16 @@ class IdentifierNode(common.EmlaNode):
             self.create_publisher(EffectEstimate, topics.EFFECTS_TOPIC, common.LATCHED_QOS)
         self.diagnostics = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS_TOPIC, common.DIAGNOSTICS_QOS)
         faults = common.Faults(self)
+        together = p.measured_frames and not self.inputs
         self.measured = common.AlignedSamples(
             self, {name: spec.describe() for name, spec in self.inputs.items()}
-            or {name: topics.MEASURED_TOPICS[name] for name in self.signals},
-            self.on_samples, faults, p.sample_period, self.publish_step, subscribe=not self.inputs)
+            or {name: f'{topics.MEASURED_FRAMES_TOPIC} {name}' if together else topics.MEASURED_TOPICS[name]
+                for name in self.signals},
+            self.on_samples, faults, p.sample_period, self.publish_step, subscribe=not (self.inputs or together))
         if self.inputs:
             common.StandardTopics(self, self.inputs, self.measured.receive, faults, p.sample_period)
+        elif together:
+            common.subscribe_signal_frames(self, topics.MEASURED_FRAMES_TOPIC, self.measured)
         self.create_subscription(Time, topics.DONE_TOPIC, self.on_done, common.LATCHED_QOS)
 
     def ready(self):

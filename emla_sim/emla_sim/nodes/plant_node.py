@@ -42,6 +42,7 @@ SPECS = [
                 'publish the true parameters and frames at multiples of this (and after each change), s', 1e-6, 1e6),
     common.Spec('start_subscribers', 2, 'start once /emla/position has this many subscriptions (and, if > 0, the '
                 'frames for the sensor and the commands are matched), 1', 0, 1000),
+    common.Spec('frames_subscribers', 0, 'and /emla/frames (the measured frames in one message) this many, 1', 0, 1000),
     common.Spec('done_subscribers', 1, 'and /emla/plant/done this many (the plant leaves once they acknowledged '
                 'it; a reader found later would never get it), 1', 0, 1000),
 ]
@@ -78,7 +79,8 @@ class PlantNode(common.EmlaNode):
         self.periods = round(p.duration / p.control_period) if p.duration else None
         if self.periods == 0:
             raise InputError(f'duration ({p.duration} s) is shorter than one control period')
-        self.awaited_readers = {topics.START_TOPIC: p.start_subscribers, topics.DONE_TOPIC: p.done_subscribers}
+        self.awaited_readers = {topics.START_TOPIC: p.start_subscribers,
+                                topics.MEASURED_FRAMES_TOPIC: p.frames_subscribers, topics.DONE_TOPIC: p.done_subscribers}
         self.changes = changes_from(p.change_times, p.change_parameters, p.change_factors)
         params = ActuatorParameters(**{name: getattr(p, name) for name in common.ACTUATOR_FIELDS})
         self.supply = params.supply_voltage
@@ -108,8 +110,8 @@ class PlantNode(common.EmlaNode):
     def try_start(self):
         if any(self.count_subscribers(topic) < n for topic, n in self.awaited_readers.items()):
             return
-        if self.awaited_readers[topics.START_TOPIC] and not (self.together.get_subscription_count()
-                                                             and self.commands_in.get_publisher_count()):
+        loop = self.awaited_readers[topics.START_TOPIC] + self.awaited_readers[topics.MEASURED_FRAMES_TOPIC]
+        if loop and not (self.together.get_subscription_count() and self.commands_in.get_publisher_count()):
             return  # a loop to run: its first frames would wait for these to match (up to a discovery period)
         self.barrier.cancel()
         self.get_logger().info('started')

@@ -2,7 +2,8 @@
 
 The plant's true frames of each period come in one message (/emla/plant/frames): the current and position
 frames are measured (delay, noise, quantisation) onto /emla/current and /emla/position, the voltage frame
-passes unchanged onto /emla/voltage (the DSP knows what it applied). State frames it cannot use (see common)
+passes unchanged onto /emla/voltage (the DSP knows what it applied); the three go together on /emla/frames
+too (a SignalFrames: one delivery per period for the controller and identifier of a launch). State frames it cannot use (see common)
 give empty measured frames with their stamp: the period goes unmeasured, the lockstep goes on.
 """
 import sys
@@ -35,23 +36,28 @@ class SensorNode(common.EmlaNode):
         p = common.declare(self, SPECS)
         self.sensor = Sensor(SensorConfig(**{spec.name: getattr(p, spec.name) for spec in SPECS}))
         self.outputs = common.frame_publishers(self, topics.MEASURED_TOPICS)
+        self.together = self.create_publisher(SignalFrames, topics.MEASURED_FRAMES_TOPIC, common.FRAME_QOS)
         self.states = common.FrameSets(self, {name: f'{topics.PLANT_FRAMES_TOPIC} {name}' for name in STATES},
                                        self.measure, common.Faults(self), subscribe=False)
+        self.voltage = None  # (stamp, samples) of the period being measured
         self.create_subscription(SignalFrames, topics.PLANT_FRAMES_TOPIC, self.on_frames, common.FRAME_QOS, raw=True)
 
     def on_frames(self, cdr):
         frames = messages.read_signal_frames_cdr(cdr)
+        stamp, sample_period, voltages = frames['voltage']
+        self.voltage = stamp, voltages
+        if len(voltages):  # (none beside the state at t = 0)
+            self.outputs['voltage'].publish(messages.frame_cdr(stamp, sample_period, voltages))
         for name in STATES:
             stamp, sample_period, samples = frames[name]
             self.states.receive(name, stamp, samples, sample_period)
-        stamp, sample_period, voltages = frames['voltage']
-        if len(voltages):  # (none beside the state at t = 0)
-            self.outputs['voltage'].publish(messages.frame_cdr(stamp, sample_period, voltages))
 
     def measure(self, stamp, sample_period, frames):
         measured = (np.empty(0),) * 2 if frames is None else self.sensor.measure(frames['current'], frames['position'])
         for name, samples in zip(STATES, measured):
             self.outputs[name].publish(messages.frame_cdr(stamp, sample_period, samples))
+        self.together.publish(messages.signal_frames_cdr(sample_period, {
+            'voltage': self.voltage, **{name: (stamp, samples) for name, samples in zip(STATES, measured)}}))
 
 
 def main(args=None):
