@@ -31,12 +31,27 @@ def test_simulate_writes_the_scenario_with_estimates_and_truth(simulated):
     assert contents.truth[-1][1]['resistance'] == 4.0
 
 
-def test_a_live_identifier_fed_by_play_agrees_with_offline_identification(simulated, tmp_path, ros_env):
+def as_sqlite3(bag, path):
+    """A copy of the MCAP bag `bag` in sqlite3 storage, written by rosbags (as `ros2 bag` writes by default
+    before Jazzy)."""
+    from rosbags.rosbag2 import Reader, StoragePlugin, Writer
+    with Reader(bag) as reader, Writer(path, version=9, storage_plugin=StoragePlugin.SQLITE3) as writer:
+        copies = {c.id: writer.add_connection(c.topic, c.msgtype, msgdef=c.msgdef.data, rihs01=c.digest,
+                                              offered_qos_profiles=c.ext.offered_qos_profiles)
+                  for c in reader.connections}
+        for connection, stamp, data in reader.messages():
+            writer.write(copies[connection.id], stamp, data)
+    return path
+
+
+@pytest.mark.parametrize('storage', ['mcap', 'sqlite3'])
+def test_a_live_identifier_fed_by_play_agrees_with_offline_identification(simulated, tmp_path, ros_env, storage):
+    bag = simulated if storage == 'mcap' else as_sqlite3(simulated, tmp_path / 'sqlite3')
     params = tmp_path / 'identifier.yaml'
     params.write_text(yaml.safe_dump({'/emla/identifier': {'ros__parameters': {'use_sim_time': True}}}))
     with processes() as start:
         identifier = start([EMLA, 'run', 'identifier', '--params-file', str(params)], env=ros_env)
-        play = start([EMLA, 'play', str(simulated), '--rate', '0', '--wait', '60', '--topics', *SIGNALS], env=ros_env)
+        play = start([EMLA, 'play', str(bag), '--rate', '0', '--wait', '60', '--topics', *SIGNALS], env=ros_env)
         _, err = play.communicate(timeout=180)
         assert play.returncode == 0, err
         assert 'paced by the live identifier' in err

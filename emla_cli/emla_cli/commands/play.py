@@ -7,7 +7,8 @@ overflow; the bag's own /emla/parameters is then not played. Without an identifi
 at once.
 /clock follows the stamps, so nodes with use_sim_time run on the bag's time. At the end /emla/plant/done
 carries the end of the played data, as the plant sends it, so a live identifier publishes its final estimate
-(see emla_core.nodes.common). The bag is read by emla_core.bag (MCAP): a corrupt chunk is skipped with a warning.
+(see emla_core.nodes.common). The bag is read by emla_core.bag (MCAP, or sqlite3 through rosbags): a corrupt
+MCAP chunk is skipped with a warning.
 """
 import itertools
 import sys
@@ -40,7 +41,7 @@ ESTIMATES = {topics.PARAMETERS_TOPIC: PARAMETER_ESTIMATE, topics.ARX_MODEL_TOPIC
 
 
 def add_arguments(parser):
-    parser.add_argument('bag', help='rosbag2 directory or .mcap file')
+    parser.add_argument('bag', help='rosbag2 directory (MCAP or sqlite3 storage) or .mcap file')
     parser.add_argument('--rate', type=float, default=1.0, metavar='R',
                         help='speed factor of the recorded timing; 0 = as fast as a live identifier takes '
                              'it (default 1)')

@@ -100,8 +100,38 @@ def bag_files(path):
     return [path / p for p in info.get('relative_file_paths', [])], dict(info.get('custom_data') or {})
 
 
+def _sqlite3(path):
+    """Whether `path` is a rosbag2 directory in sqlite3 storage (read through rosbags: no chunks to check)."""
+    meta = path / 'metadata.yaml'
+    if not (path.is_dir() and meta.is_file()):
+        return False
+    try:
+        info = yaml.safe_load(meta.read_text())['rosbag2_bagfile_information']
+    except (yaml.YAMLError, KeyError, TypeError):
+        return False  # bag_files says what is wrong
+    return info.get('storage_identifier') == 'sqlite3'
+
+
+@contextlib.contextmanager
+def _sqlite3_reader(path):
+    """A rosbags Reader of a sqlite3 bag; its errors as one InputError line."""
+    from rosbags.rosbag2 import Reader
+    try:
+        with Reader(path) as reader:
+            yield reader
+    except InputError:
+        raise
+    except Exception as exc:  # rosbags raises many kinds on a damaged bag; the user needs one line
+        raise InputError(f'{path}: unreadable sqlite3 bag: {one_line(exc)}') from None
+
+
 def bag_topics(path):
-    """{topic: message type} of the channels with messages in a bag, from its MCAP summaries."""
+    """{topic: message type} of the channels with messages in a bag, from its MCAP summaries (or its sqlite3
+    database)."""
+    path = Path(path)
+    if _sqlite3(path):
+        with _sqlite3_reader(path) as reader:
+            return {c.topic: c.msgtype for c in reader.connections if c.msgcount}
     topics = {}
     for file in bag_files(Path(path))[0]:
         try:
@@ -152,7 +182,11 @@ def reporting_skipped(skipped):
 
 def iter_serialized(path, topics=None, on_corrupt=warn_skipped):
     """(topic, message type, log time ns, CDR bytes) of a bag directory or .mcap file: file by file, each file
-    in log-time order; only `topics` if given. A corrupt chunk is skipped after on_corrupt(CorruptChunk)."""
+    in log-time order; only `topics` if given. A corrupt chunk is skipped after on_corrupt(CorruptChunk).
+    A sqlite3 bag is read through rosbags, in log-time order."""
+    if _sqlite3(Path(path)):
+        yield from _sqlite3_serialized(Path(path), topics)
+        return
     for file in bag_files(Path(path))[0]:
         try:
             with file.open('rb') as f:
@@ -166,6 +200,13 @@ def iter_serialized(path, topics=None, on_corrupt=warn_skipped):
                     yield from _indexed(f, file, summary, topics, on_corrupt)
         except MCAP_ERRORS as exc:
             raise unreadable(file, exc) from None
+
+
+def _sqlite3_serialized(path, topics):
+    with _sqlite3_reader(path) as reader:
+        connections = [c for c in reader.connections if topics is None or c.topic in topics]
+        for connection, stamp, data in reader.messages(connections=connections) if connections else ():
+            yield connection.topic, connection.msgtype, stamp, data
 
 
 def _indexed(f, file, summary, topics, on_corrupt):
