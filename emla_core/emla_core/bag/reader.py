@@ -82,19 +82,24 @@ def unreadable(file, exc):
     return InputError(f'{file}: unreadable MCAP: {one_line(exc)}')
 
 
+def _info(path):
+    """The rosbag2_bagfile_information of the bag directory `path` (its metadata.yaml)."""
+    meta_path = path / 'metadata.yaml'
+    if not meta_path.exists():
+        raise InputError(f'{path}: not a rosbag2 directory (no metadata.yaml)')
+    try:
+        return yaml.safe_load(meta_path.read_text())['rosbag2_bagfile_information']
+    except (yaml.YAMLError, KeyError, TypeError) as exc:
+        raise InputError(f'{meta_path}: unreadable metadata: {one_line(exc)}') from None
+
+
 def bag_files(path):
     """The MCAP files of a bag directory (or the .mcap file itself) and its custom data."""
     if path.is_file():
         return [path], {}
     if not path.exists():
         raise InputError(f'{path}: no such file or directory')
-    meta_path = path / 'metadata.yaml'
-    if not meta_path.exists():
-        raise InputError(f'{path}: not a rosbag2 directory (no metadata.yaml)')
-    try:
-        info = yaml.safe_load(meta_path.read_text())['rosbag2_bagfile_information']
-    except (yaml.YAMLError, KeyError, TypeError) as exc:
-        raise InputError(f'{meta_path}: unreadable metadata: {one_line(exc)}') from None
+    info = _info(path)
     if info.get('storage_identifier') != 'mcap':
         raise InputError(f'{path}: storage {info.get("storage_identifier")!r} is not supported (mcap only)')
     return [path / p for p in info.get('relative_file_paths', [])], dict(info.get('custom_data') or {})
@@ -102,14 +107,7 @@ def bag_files(path):
 
 def _sqlite3(path):
     """Whether `path` is a rosbag2 directory in sqlite3 storage (read through rosbags: no chunks to check)."""
-    meta = path / 'metadata.yaml'
-    if not (path.is_dir() and meta.is_file()):
-        return False
-    try:
-        info = yaml.safe_load(meta.read_text())['rosbag2_bagfile_information']
-    except (yaml.YAMLError, KeyError, TypeError):
-        return False  # bag_files says what is wrong
-    return info.get('storage_identifier') == 'sqlite3'
+    return path.is_dir() and (path / 'metadata.yaml').is_file() and _info(path).get('storage_identifier') == 'sqlite3'
 
 
 @contextlib.contextmanager
