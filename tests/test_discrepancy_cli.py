@@ -88,7 +88,7 @@ def test_cli_mechanical_only_csv_to_stdout(tmp_path):
 @pytest.mark.parametrize('make, message', [
     (lambda d: d / 'missing.csv', 'no such file'),
     (lambda d: (d / 'x.csv').write_text('t,voltage\n0,1\n1e-4,2\n') and d / 'x.csv', 'needs columns'),
-    (lambda d: d, 'not a rosbag2 directory'),
+    (lambda d: (d / 'plain').mkdir() or d / 'plain', 'not a rosbag2 directory'),  # beside the outputs, not holding them
 ])
 def test_cli_bad_input_is_one_line_and_exit_2(tmp_path, make, message):
     out = emla('discrepancy', make(tmp_path), '--json', tmp_path / 'out.json', '--report', tmp_path / 'r')

@@ -177,7 +177,7 @@ def test_unwritable_outputs_leave_nothing(data, tmp_path, capsys):
     json_path = tmp_path / 'out.json'
     status = main(['identify', str(data / 'run.csv'), '--json', str(json_path),
                    '--plot', str(tmp_path / 'missing-dir' / 'out.png')])
-    assert status == 2 and 'out.png: cannot write' in capsys.readouterr().err
+    assert status == 2 and 'out.png: its directory does not exist' in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
 
 

@@ -247,7 +247,7 @@ def test_emla_identify_streams_a_long_record_to_the_same_answer(run_bag, monkeyp
     monkeypatch.setattr(streaming, 'identify_chunks',
                         lambda *a, **k: streamed.append(1) or identify_chunks(*a, **k))
     for path in (run_bag / 'bag', run_bag / 'run.csv'):
-        result = identify_json(path, '--plot', str(tmp_path / 'plot.png'))
+        result = identify_json(path, '--plot', str(tmp_path / 'plot.png'), '--force')   # one plot, drawn twice
         assert set(result) == set(short_csv) and result['samples'] == short_csv['samples'] == 3000
         assert result['sample_period'] == short_csv['sample_period']
         for name, value in short_csv['parameters'].items():

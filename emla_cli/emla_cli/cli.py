@@ -66,9 +66,17 @@ def main(argv=None):
         parser.print_help()
         return 2
     try:
-        return _command_module(args.command).run(args) or 0
+        status = _command_module(args.command).run(args) or 0
+        from emla_cli.commands.output import write_stdout
+        write_stdout('')    # flush what the command printed: a full disk or a closed pipe is one line too
+        return status
     except InputError as exc:
         print(f'emla {args.command}: error: {exc}', file=sys.stderr)
+        return 2
+    except (MemoryError, RecursionError) as exc:   # bugs to fix where they arise; one line here as a last resort
+        what = 'out of memory' if isinstance(exc, MemoryError) else 'recursion too deep'
+        print(f'emla {args.command}: error: {what} ({type(exc).__name__}); a bug in emla, please report it',
+              file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f'emla {args.command}: interrupted', file=sys.stderr)

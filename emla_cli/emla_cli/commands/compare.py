@@ -6,7 +6,7 @@ from pathlib import Path
 from emla_core.errors import InputError
 
 from .inputs import DATA_HELP, add_data_arguments, load_data, understood
-from .output import emit_json, write_file
+from .output import add_force_argument, check_outputs, emit_json
 
 HELP = 'Compare a model file (or two) with measured data: each subsystem predicted from its measured inputs.'
 SIGNAL_UNITS = {'current': 'A', 'position': 'm'}
@@ -34,20 +34,21 @@ def add_arguments(parser):
                         help='a model file (give it twice to compare two models)')
     parser.add_argument('--json', metavar='FILE', help='write the result here instead of stdout')
     parser.add_argument('--plot', metavar='FILE.png', help='PNG of measured and predicted signals')
+    add_force_argument(parser)
     add_data_arguments(parser)
 
 
 def run(args):
+    from emla_core.bag.report import read_warnings
     from emla_core.model_file import read
     from emla_identification.discrepancy.predict import predict
     from emla_identification.model import model_fit
 
     if len(args.model_file) > 2:
         raise InputError('--model-file: give one model, or two to compare them')
-    for path in (args.json, args.plot):
-        if path and not Path(path).resolve().parent.is_dir():
-            raise InputError(f'{path}: its directory does not exist')
-    recording = load_data(args)
+    check_outputs({'--json': args.json, '--plot': args.plot}, [args.data, *args.model_file], args.force)
+    with read_warnings() as lost:  # a bag's skipped chunks and the data they cost, for the JSON too
+        recording = load_data(args)
     predictions = {}
     for path in args.model_file:
         predictions[path] = predict(model_fit(read(path), recording, path))
@@ -57,13 +58,11 @@ def run(args):
               'nrmse': {m: {s: round(p.nrmse, 6) for s, p in pred.items()} for m, pred in predictions.items()},
               'horizon': {s: {'samples': p.horizon, 'seconds': p.horizon * recording.sample_period}
                           for s, p in next(iter(predictions.values())).items()},
-              **understood(recording, 'compare')}
+              **understood(recording, 'compare'), **({'warnings': lost} if lost else {})}
     if len(predictions) == 1:   # one model: its figures directly, as the contract's single-model form
         (only,) = predictions
         result['fit_percent'], result['nrmse'] = result['fit_percent'][only], result['nrmse'][only]
-    if args.plot:
-        write_file(args.plot, lambda temporary: plot(predictions, recording, temporary))
-    emit_json(result, args.json)
+    emit_json(result, args.json, [(args.plot, lambda temporary: plot(predictions, recording, temporary))])
     for model, pred in predictions.items():
         fits = ', '.join(f'{s} {100.0 * (1.0 - p.nrmse):.2f} %' for s, p in pred.items())
         print(f'emla compare: {Path(model).name}: fit {fits}', file=sys.stderr)

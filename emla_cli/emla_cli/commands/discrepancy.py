@@ -10,16 +10,13 @@ held-out residual each explains, adds the best one if it is significant, re-iden
 DATA: CSV (t,voltage,current,position or t,force,position), rosbag2 directory or .mcap file.
 The JSON goes to stdout unless --json is given.
 """
-import os
-import shutil
 import sys
-import tempfile
 from pathlib import Path
 
 from emla_core.errors import InputError
 
 from .inputs import DATA_HELP, add_data_arguments, load_data, understood
-from .output import emit_json, json_text, write_file
+from .output import REPORT, add_force_argument, check_outputs, emit_json, json_text
 
 HELP = 'Find what the model is missing: name the effect, add it, show the gap shrink.'
 
@@ -45,15 +42,18 @@ def add_arguments(parser):
     parser.add_argument('data', metavar='DATA', help='CSV or MAT file, rosbag2 directory or .mcap file')
     parser.add_argument('--json', metavar='FILE', help='write the result here instead of stdout')
     parser.add_argument('--report', metavar='DIR',
-                        help='write report.md with PNG figures (and diagnosis.json) into DIR')
+                        help='write report.md with PNG figures (and diagnosis.json) into DIR (new or empty; '
+                             'with --force it may hold a previous report, which is replaced)')
     parser.add_argument('--candidates', metavar='NAMES',
                         help='comma-separated candidate effects to consider (default: all registered)')
     parser.add_argument('--model-out', metavar='M.yaml',
                         help='write the final model (nominal parameters and the effects named) as a model file')
+    add_force_argument(parser)
     add_data_arguments(parser)
 
 
 def run(args):
+    from emla_core.bag.report import read_warnings
     from emla_identification.discrepancy import CANDIDATES, diagnose
 
     names = None
@@ -63,34 +63,28 @@ def run(args):
         if unknown or not names:
             raise InputError(f'--candidates {args.candidates!r}: unknown effect(s) '
                              f'{", ".join(unknown) or "(none given)"}; known: {", ".join(CANDIDATES)}')
-    recording = load_data(args)
+    check_outputs({'--json': args.json, '--model-out': args.model_out}, [args.data], args.force,
+                  {'--report': (args.report, REPORT)})
+    with read_warnings() as lost:  # a bag's skipped chunks and the data they cost, for the JSON too
+        recording = load_data(args)
     diagnosis = diagnose(recording, names)
-    result = {**diagnosis.to_dict(), **understood(recording, 'discrepancy')}
+    result = {**diagnosis.to_dict(), **understood(recording, 'discrepancy'), **({'warnings': lost} if lost else {})}
+    files = []
     if args.report:
-        try:
-            _write_report(diagnosis, Path(args.report), json_text(result))
-        except OSError as exc:
-            raise InputError(f'{exc.filename or "output"}: cannot write: {exc.strerror or exc}') from None
+        files.append((args.report, lambda temporary: _write_report(diagnosis, temporary, json_text(result))))
     if args.model_out:
         from emla_core.model_file import write
         from emla_identification.model import from_fit
         names = [stage.assessment.name for stage in diagnosis.stages]
-        write_file(args.model_out, lambda temporary: write(
-            from_fit(diagnosis.final, names, args.data, 'emla ' + ' '.join(sys.argv[1:])), temporary))
-    emit_json(result, args.json)
+        files.append((args.model_out, lambda temporary: write(
+            from_fit(diagnosis.final, names, args.data, 'emla ' + ' '.join(sys.argv[1:])), temporary)))
+    emit_json(result, args.json, files)
     return 0
 
 
 def _write_report(diagnosis, directory, text):
-    """Build the report in a scratch directory, then move it in with report.md last (present = complete).
-""" + DATA_HELP
+    """The report (report.md, its figures and diagnosis.json) in the new directory `directory` (and its parents)."""
     from emla_identification.discrepancy.report import write_report
 
-    directory.mkdir(parents=True, exist_ok=True)
-    scratch = Path(tempfile.mkdtemp(prefix='.report-', dir=directory))
-    try:
-        write_report(diagnosis, scratch, text)
-        for path in sorted(scratch.iterdir(), key=lambda p: p.name == 'report.md'):
-            os.replace(path, directory / path.name)
-    finally:
-        shutil.rmtree(scratch, ignore_errors=True)
+    Path(directory).mkdir(parents=True)
+    write_report(diagnosis, directory, text)

@@ -22,11 +22,12 @@ from pathlib import Path
 
 import numpy as np
 
+from emla_core.bag.report import read_warnings
 from emla_core.errors import InputError
 from emla_identification.plausibility import plausibility_warnings
 
 from .inputs import DATA_HELP, add_data_arguments, foreign, load_data, understood, warn
-from .output import discard, json_text, publish, stage
+from .output import add_force_argument, check_outputs, emit_json
 
 HELP = 'Identify actuator parameters (grey-box) or an ARX model from a CSV file or a bag.'
 
@@ -79,45 +80,42 @@ def add_arguments(parser):
     parser.add_argument('--model-file', metavar='M.yaml',
                         help='identify the structure of this model file (its effects too) on DATA')
     parser.add_argument('--model-out', metavar='M.yaml', help='write the identified model to this model file')
+    add_force_argument(parser)
     add_data_arguments(parser)
 
 
 def run(args):
     model, orders, forgetting = _options(args)
+    check_outputs({'--json': args.json, '--plot': args.plot, '--model-out': args.model_out},
+                  [args.data, args.model_file], args.force)
     structure = None
     if args.model_file:
         from emla_core.model_file import read
         structure = read(args.model_file)
-    if model == 'arx':
-        recording = load_data(args)
-        result, plot = _arx(recording, orders, _memory(args, forgetting, recording), args)
-        identified = None
-    elif structure is not None and structure.effects:
-        recording = load_data(args)
-        result, plot, identified = _with_effects(structure, recording, args)
-    else:
-        recording, parts = _record(args)
-        result, plot, identified = _greybox(recording, parts, model, _memory(args, forgetting, recording), args)
+    with read_warnings() as lost:  # a bag's skipped chunks and the data they cost, for the JSON too
+        if model == 'arx':
+            recording = load_data(args)
+            result, plot = _arx(recording, orders, _memory(args, forgetting, recording), args)
+            identified = None
+        elif structure is not None and structure.effects:
+            recording = load_data(args)
+            result, plot, identified = _with_effects(structure, recording, args)
+        else:
+            recording, parts = _record(args)
+            result, plot, identified = _greybox(recording, parts, model, _memory(args, forgetting, recording), args)
     if model != 'arx':
         result['warnings'] = warn(plausibility_warnings(result['parameters'], result['std'], recording), 'identify')
+    if lost:
+        result['warnings'] = lost + result.get('warnings', [])
     result.update(understood(recording, 'identify'))
-    text = json_text(result)
-    staged = []  # (temporary, final): renamed only once every output is complete
-    try:
-        if args.model_out:
-            from emla_core.model_file import write
-            staged.append((stage(args.model_out, lambda temporary: write(identified, temporary)), args.model_out))
-        if args.plot:
-            from emla_cli.identify_plot import save_convergence_plot
-            staged.append((stage(args.plot, lambda temporary: save_convergence_plot(temporary, *plot)), args.plot))
-        if args.json:
-            staged.append((stage(args.json, lambda temporary: Path(temporary).write_text(text)), args.json))
-    except BaseException:
-        discard(staged)
-        raise
-    publish(staged)
-    if not args.json:
-        sys.stdout.write(text)
+    files = []
+    if args.model_out:
+        from emla_core.model_file import write
+        files.append((args.model_out, lambda temporary: write(identified, temporary)))
+    if args.plot:
+        from emla_cli.identify_plot import save_convergence_plot
+        files.append((args.plot, lambda temporary: save_convergence_plot(temporary, *plot)))
+    emit_json(result, args.json, files)
     return 0
 
 

@@ -2,8 +2,10 @@
 import shutil
 from pathlib import Path
 
+from emla_core.errors import InputError
+
 from .inputs import DATA_HELP, add_data_arguments, load_data, understood
-from .output import replace_bag
+from .output import BAG, check_outputs, replace_bag, write_stdout
 
 HELP = 'Convert measured data into a rosbag2 directory (MCAP) with the suite topics.'
 
@@ -13,7 +15,7 @@ def description():
 Convert a recording (CSV or MAT file, or a bag of other topics) into a rosbag2 directory (MCAP) of the
 suite's topics. Each signal becomes a /emla/<signal> topic of SampleFrame messages (100 samples per
 frame) in SI units, stamped from the data's time. `emla identify` gives the same answer on the data and on
-the bag.
+the bag. The data must hold voltage, current and position (or force and position).
 
 """ + DATA_HELP
 
@@ -27,7 +29,9 @@ def add_arguments(parser):
 
 def run(args):
     from emla_core.bag import write_recording
+    check_outputs({}, [args.data], args.force, {'BAGDIR': (args.bagdir, BAG)})
     recording = load_data(args)
+    _require_measured(recording, args.data)
     bag = Path(args.bagdir)
     replace_bag(bag, args.force)
     existed = bag.is_dir()
@@ -42,6 +46,15 @@ def run(args):
                 bag.mkdir()
         raise
     understood(recording, 'import')
-    print(f'{bag}: {len(recording)} samples of {", ".join(recording.signals)} '
-          f'at {1.0 / recording.sample_period:g} Hz')
+    write_stdout(f'{bag}: {len(recording)} samples of {", ".join(recording.signals)} '
+                 f'at {1.0 / recording.sample_period:g} Hz\n')
     return 0
+
+
+def _require_measured(recording, data):
+    """An InputError unless the record has the signals the suite identifies from (voltage, current and position,
+    or force and position): a bag whose corrupt chunks held them would give a bag of its other topics only."""
+    from emla_identification.regressors import default_model
+    if default_model(recording.signals) is None:
+        raise InputError(f'{data}: no measured voltage, current and position (or force and position) to import; '
+                         f'it has {", ".join(recording.signals) or "no signals"}')

@@ -13,10 +13,8 @@ import sys
 import time
 from pathlib import Path
 
-from emla_core.errors import InputError
-
 from . import scenario_args
-from .output import emit_json, replace_bag
+from .output import BAG, check_outputs, emit_json, replace_bag
 
 HELP = 'Run the plant, sensor, identifier and controller nodes as a ROS 2 graph and record a bag.'
 
@@ -39,7 +37,8 @@ def add_arguments(parser):
     scenario_args.add_arguments(parser)
     parser.add_argument('--bag', metavar='DIR', help='bag directory to record, new or empty (default: '
                                                      'bags/<scenario>-<time>)')
-    parser.add_argument('--force', action='store_true', help='replace DIR if it holds a bag already')
+    parser.add_argument('--force', action='store_true', help='replace DIR if it holds a bag already, and FILE if '
+                                                             'it exists')
     parser.add_argument('--json', metavar='FILE', help='write the summary here (default: stdout)')
 
 
@@ -59,11 +58,10 @@ def _interrupt(signum, frame):
 def run(args):
     from emla_cli.launcher import LaunchError, launch, scenario_parameters
 
+    bag = Path(args.bag) if args.bag else default_bag(args.scenario)
+    check_outputs({'--json': args.json}, [args.model_file], args.force, {'--bag': (bag, BAG)})
     scenario, duration = scenario_args.scenario_and_duration(args)
-    bag = Path(args.bag) if args.bag else default_bag(scenario.name)
     replace_bag(bag, args.force)
-    if bag.exists() and (not bag.is_dir() or any(bag.iterdir())):
-        raise InputError(f'{bag}: exists and is not an empty directory; choose a new bag directory or --force')
     signal.signal(signal.SIGTERM, _interrupt)      # stop the graph as on Ctrl-C
     try:
         summary = launch(scenario.name, duration, bag, scenario_parameters(scenario))

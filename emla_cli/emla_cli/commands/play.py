@@ -15,7 +15,6 @@ import sys
 import time
 
 from emla_core import topics
-from emla_core.bag import typestore
 from emla_core.errors import InputError
 from emla_core.topics import PARAMETER_ESTIMATE, SAMPLE_FRAME, stamp_to_ns
 
@@ -65,16 +64,18 @@ def _open(args):
     return played, first[2], itertools.chain([first], messages)
 
 
-def _frame_end(msgtype, stamp, raw):
-    """The end of a SampleFrame's samples (stamp + n * period), in ns."""
-    msg = typestore().deserialize_cdr(raw, msgtype)
+def _frame_end(bag, topic, msgtype, stamp, raw):
+    """The end of a SampleFrame's samples (stamp + n * period), in ns; an InputError if the frame is malformed."""
+    from emla_core.bag.reader import check_period, deserialize
+    msg = deserialize(bag, topic, msgtype, stamp, raw)
+    check_period(bag, msg.sample_period)
     return stamp + round(len(msg.data) * msg.sample_period * 1e9)
 
 
-def _data_end(last_frames):
+def _data_end(bag, last_frames):
     """The end of the time every played signal covers (as emla_core.bag.read_bag cuts them): the end of the
     last voltage interval for a launched graph's bag, i.e. the time the plant reports as done."""
-    return min((_frame_end(*frame) for frame in last_frames.values()), default=None)
+    return min((_frame_end(bag, topic, *frame) for topic, frame in last_frames.items()), default=None)
 
 
 def _wait_for_subscribers(publishers, seconds):
@@ -159,7 +160,7 @@ def run(args):
             if msgtype == SAMPLE_FRAME:
                 last_frames[topic] = (msgtype, stamp, raw)
             count += 1
-        end = _data_end(last_frames)
+        end = _data_end(args.bag, last_frames)
         if end is not None:
             clock.publish(Clock(clock=messages.time_msg(end)))
             done.publish(messages.time_msg(end))

@@ -7,11 +7,8 @@ peak_current}}} (SI units) or writes it with --json; --plot draws the position, 
 each case over the last cycle, as the EMLA paper's Figures 6-7.
 """
 import textwrap
-from pathlib import Path
 
-from emla_core.errors import InputError
-
-from .output import emit_json, write_file
+from .output import add_force_argument, check_outputs, emit_json
 
 HELP = 'Run a closed-loop adaptive-control comparison (nominal / changed fixed / changed adaptive).'
 
@@ -35,19 +32,16 @@ def add_arguments(parser):
     parser.add_argument('name', metavar='NAME', help='scenario name (see above)')
     parser.add_argument('--json', metavar='FILE', help='write the metrics here instead of printing them')
     parser.add_argument('--plot', metavar='FILE.png', help='write a plot of the cases')
+    add_force_argument(parser)
 
 
 def run(args):
     from emla_control import scenarios  # numba and the identifier load only when a scenario runs
 
     scenario = scenarios.get(args.name)
-    for path in (args.json, args.plot):
-        if path and not Path(path).resolve().parent.is_dir():
-            raise InputError(f'{path}: its directory does not exist')
+    check_outputs({'--json': args.json, '--plot': args.plot}, force=args.force)
     result = scenarios.run_scenario(scenario)
-    emit_json(result.to_json(), args.json)
-    if args.plot:
-        write_file(args.plot, lambda tmp: plot(result, tmp))
+    emit_json(result.to_json(), args.json, [(args.plot, lambda tmp: plot(result, tmp))])
     return 0
 
 

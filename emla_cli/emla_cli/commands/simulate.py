@@ -14,7 +14,7 @@ import sys
 import time
 
 from . import scenario_args
-from .output import replace_bag
+from .output import BAG, check_outputs, replace_bag
 
 HELP = 'Simulate a scenario in-process and record it as a bag.'
 
@@ -97,6 +97,7 @@ def write_bag(result, path, scenario):
 def run(args):
     from emla_core.topics import ESTIMATE_PERIOD
 
+    check_outputs({}, [args.model_file], args.force, {'--bag': (args.bag, BAG)})
     scenario, duration = scenario_args.scenario_and_duration(args)
     replace_bag(args.bag, args.force)
     started = time.monotonic()

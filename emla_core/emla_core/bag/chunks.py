@@ -14,7 +14,8 @@ from emla_core.errors import InputError
 from emla_core.recording import Recording
 from emla_core.topics import NAMESPACE, SAMPLE_FRAME
 
-from .reader import MCAP_ERRORS, bag_files, chunk_data, read_bag, reporting_skipped, unreadable
+from .reader import (MCAP_ERRORS, bag_files, check_period, chunk_data, data_cost, read_bag, reporting_skipped,
+                     unreadable, warn_cost)
 
 _MCAP_MESSAGE = 0x05      # the opcode of an MCAP Message record
 _DECODE_BYTES = 1 << 20   # uncompressed chunk data decoded at a time
@@ -27,7 +28,8 @@ def iter_chunks(path, signals=None, chunk_samples=1 << 14):
     signals: the names the parts carry (default: all); all of the bag's signals are aligned, as read_bag does.
     Each signal's frames must be stored in time order (the suite stores frames at their stamps), where read_bag
     also accepts them shuffled. A file without a summary and chunk index (e.g. a bare .mcap whose writer was
-    killed) is read whole by read_bag and comes as one part. A corrupt chunk is skipped as read_bag skips it.
+    killed) is read whole by read_bag and comes as one part. A corrupt chunk is skipped as read_bag skips it, and
+    the data it cost are named as read_bag names them.
     """
     if isinstance(chunk_samples, bool) or not isinstance(chunk_samples, int) or chunk_samples < 1:
         raise ValueError(f'chunk_samples must be a positive integer, got {chunk_samples!r}')
@@ -53,6 +55,9 @@ def iter_chunks(path, signals=None, chunk_samples=1 << 14):
             for frames in _decoded_chunks(file, slot_of_channel, len(names), skipped.append):
                 yield from aligner.add(*frames)
         yield from aligner.finish()
+    if skipped:
+        warn_cost(data_cost(path, {n: (aligner.start[n], aligner.end[n]) for n in aligner.names}, aligner.period,
+                            [n for n in names if n not in aligner.start]))
 
 
 class _Aligner:
@@ -90,8 +95,7 @@ class _Aligner:
     def _frames(self, name, stamps, periods, lengths):
         if self.period is None:
             self.period = float(periods[0])
-            if not self.period > 0:
-                raise InputError(f'{self.path}: sample period {self.period} is not positive')
+            check_period(self.path, self.period)
         if np.any(periods != self.period):
             different = sorted({self.period, *periods.tolist()})
             raise InputError(f'{self.path}: frames have different sample periods {different}')
@@ -261,11 +265,11 @@ def _decode_frames(buf, slot_of_channel, slots):
     starts = np.zeros(slots + 1, dtype=np.int64)
     frames, pos, bad = 0, 0, -1
     while pos < buf.size:
-        length = _little_endian(buf, pos + 1, 8) if pos + 9 <= buf.size else -1
-        body, end = pos + 9, pos + 9 + length
-        if length < 0 or end > buf.size:
+        length = _little_endian(buf, pos + 1, 8) if pos + 9 <= buf.size else -1  # negative past 2**63: refused
+        if length < 0 or length > buf.size - pos - 9:
             bad = pos
             break
+        body, end = pos + 9, pos + 9 + length
         if buf[pos] == _MCAP_MESSAGE and end >= body + 2:
             channel = _little_endian(buf, body, 2)
             slot = slot_of_channel[channel] if channel < slot_of_channel.size else -1

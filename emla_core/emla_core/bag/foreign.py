@@ -17,9 +17,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from emla_core.errors import InputError
+from emla_core.files import regular_file
 from emla_core.recording import Recording
 from emla_core.sampling import align
 from emla_core.topics import NAMESPACE, SAMPLE_FRAME, SIGNALS, stamp_to_ns
@@ -62,8 +62,12 @@ def parse_topics(text, flag='--topics'):
 
 def _reader(path):
     from rosbags.highlevel import AnyReader
-    if Path(path).is_dir() and not (Path(path) / 'metadata.yaml').is_file():
-        raise InputError(f'{path}: not a rosbag2 directory (no metadata.yaml)')
+
+    from .reader import bag_info
+    if Path(path).is_dir():
+        bag_info(Path(path))  # its metadata and the files it names checked before rosbags opens them
+    else:
+        regular_file(path, 'bag file', limit=None)
     try:
         reader = AnyReader([Path(path)], default_typestore=typestore())
         reader.open()
@@ -74,29 +78,25 @@ def _reader(path):
 
 def suite_layout(path):
     """Whether `path` is a bag the suite's fast readers take (emla_core.bag.read_bag, iter_chunks): MCAP
-    storage with SampleFrames under /emla/."""
+    storage with SampleFrames under /emla/. A directory's metadata.yaml that cannot be read is an InputError."""
+    from .reader import MCAP_ERRORS, bag_info
     path = Path(path)
-    if path.is_file():
-        if path.suffix != '.mcap':
-            return False
-        from mcap.reader import make_reader
-
-        from .reader import MCAP_ERRORS
-        try:
-            with path.open('rb') as f:
-                summary = make_reader(f).get_summary()
-        except MCAP_ERRORS:
-            return False
-        return summary is not None and any(
-            c.topic.startswith(NAMESPACE) and summary.schemas.get(c.schema_id) is not None
-            and summary.schemas[c.schema_id].name == SAMPLE_FRAME for c in summary.channels.values())
-    try:
-        info = yaml.safe_load((path / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
-        return info.get('storage_identifier') == 'mcap' and any(
+    if path.is_dir():
+        info = bag_info(path)
+        return info['storage_identifier'] == 'mcap' and any(
             t['topic_metadata']['name'].startswith(NAMESPACE) and t['topic_metadata']['type'] == SAMPLE_FRAME
             for t in info.get('topics_with_message_count') or ())
-    except (OSError, yaml.YAMLError, KeyError, TypeError):
+    if path.suffix != '.mcap':
         return False
+    from mcap.reader import make_reader
+    try:
+        with regular_file(path, 'MCAP file', limit=None).open('rb') as f:
+            summary = make_reader(f).get_summary()
+    except MCAP_ERRORS:
+        return False
+    return summary is not None and any(
+        c.topic.startswith(NAMESPACE) and summary.schemas.get(c.schema_id) is not None
+        and summary.schemas[c.schema_id].name == SAMPLE_FRAME for c in summary.channels.values())
 
 
 def load_bag(path, topics=None, units=None):

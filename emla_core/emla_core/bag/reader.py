@@ -4,22 +4,26 @@ iter_serialized, bag_topics.
 A file with a chunk index is read chunk by chunk, and a corrupt chunk (its record, decompression or CRC fails)
 is skipped and described (CorruptChunk: its file, number and the time span of its messages). read_bag and
 iter_chunks name it in the error its loss may cause (a gap in a signal, ...), else in a warning once done
-(logging, one line). A file without a chunk index is read straight through, and any damage refuses it.
+(logging, one line), followed by one that names the measured data it cost (data_cost). A file without a chunk
+index is read straight through, and any damage refuses it. A bag's metadata.yaml is checked before any file it
+names is opened (bag_info): hostile metadata, files outside the bag, devices and FIFOs are refused in one line.
 """
 import collections
 import contextlib
 import heapq
 import itertools
 import logging
+import math
+import os
 import struct
 from dataclasses import dataclass
 from io import BytesIO
-from pathlib import Path
+from pathlib import Path, PurePath
 
 import numpy as np
 import yaml
 from mcap.data_stream import ReadDataStream
-from mcap.exceptions import McapError
+from mcap.exceptions import EndOfFile, McapError
 from mcap.opcode import Opcode
 from mcap.reader import NonSeekingReader, make_reader
 from mcap.records import Chunk, Message
@@ -28,6 +32,7 @@ from rosbags.serde import SerdeError
 from zstandard import ZstdError
 
 from emla_core.errors import InputError
+from emla_core.files import regular_file
 from emla_core.messages import estimate_std, estimate_values, frame_data
 from emla_core.recording import Recording
 from emla_core.topics import (NAMESPACE, PARAMETER_ESTIMATE, PARAMETERS_TOPIC, SAMPLE_FRAME, TRUE_PARAMETERS_TOPIC,
@@ -36,8 +41,12 @@ from emla_core.topics import (NAMESPACE, PARAMETER_ESTIMATE, PARAMETERS_TOPIC, S
 from .schema import typestore
 
 log = logging.getLogger(__name__)
-# What damaged MCAP data raise: the mcap library, the file, struct and zstd decompression.
-MCAP_ERRORS = (McapError, OSError, ValueError, KeyError, EOFError, IndexError, struct.error, ZstdError)
+# What damaged MCAP data raise: the mcap library, the file, struct, zstd and lz4 (RuntimeError) decompression.
+MCAP_ERRORS = (McapError, OSError, ValueError, KeyError, EOFError, IndexError, struct.error, ZstdError, RuntimeError)
+MCAP_MAGIC = b'\x89MCAP0\r\n'
+MAX_METADATA_BYTES = 8 << 20   # a metadata.yaml of some 50 000 splits; a larger one is refused, not parsed
+MAX_NESTING = 16               # a bag's metadata nests 5 deep; deeper YAML is refused before it is built
+MAX_CHUNK_BYTES = 1 << 30      # an MCAP chunk, uncompressed (writers use a few MiB)
 
 
 def _finite(values):
@@ -72,42 +81,162 @@ def warn_skipped(chunk):
     log.warning('warning: skipped the %s', chunk)
 
 
+def data_cost(path, spans, period, absent=()):
+    """The warning (one line) of the measured data that skipped chunks cost a record cut to the time span all
+    its signals share; None if they cost none.
+
+    Parameters
+    ----------
+    path : Path
+        The bag, to name.
+    spans : dict
+        {signal: (first stamp, end) in ns} of each signal's samples as read.
+    period : float
+        The sample period in s.
+    absent : sequence of str, optional
+        Signals of the bag of which no sample was read.
+
+    Returns
+    -------
+    str or None
+        Each signal's loss: where it has no samples that another one has ('lost'), and where it has samples
+        outside the span all share ('cut'), from when to when and how many samples.
+    """
+    first, last = max(s for s, _ in spans.values()), min(e for _, e in spans.values())
+    low, high = min(s for s, _ in spans.values()), max(e for _, e in spans.values())
+    losses = [f'{name} lost entirely' for name in absent]
+    for name, (start, end) in spans.items():
+        for a, b, how in ((low, start, 'lost'), (start, first, 'cut'), (last, end, 'cut'), (end, high, 'lost')):
+            samples = round((b - a) * 1e-9 / period)
+            if samples > 0:
+                losses.append(f'{name} {how} from t = {a * 1e-9:.6f} to {b * 1e-9:.6f} s ({samples} samples)')
+    if not losses:
+        return None
+    return (f'{path}: the skipped chunks cost measured data: {"; ".join(losses)} (lost: not read; cut: read, but '
+            f'outside the time span all signals share)')
+
+
 def one_line(exc):
     """The message of an exception on one line (YAML and MCAP errors span several)."""
     return ' '.join(str(exc).split()) or type(exc).__name__
 
 
 def unreadable(file, exc):
-    """The InputError of an MCAP file that cannot be read."""
-    return InputError(f'{file}: unreadable MCAP: {one_line(exc)}')
+    """The InputError of an MCAP file that cannot be read (never with the file's bytes, which mcap would show)."""
+    head, tail = _magics(file)
+    if head is not None and head != MCAP_MAGIC:
+        problem = 'not an MCAP file (it does not begin with the MCAP magic)'
+    elif tail is not None and tail != MCAP_MAGIC:
+        problem = 'cut short (no MCAP magic at its end: its writer did not finish it)'
+    elif isinstance(exc, EndOfFile):
+        problem = 'cut short (it ends inside a record)'
+    else:
+        problem = one_line(exc)
+    return InputError(f'{file}: unreadable MCAP: {problem}')
 
 
-def _info(path):
-    """The rosbag2_bagfile_information of the bag directory `path` (its metadata.yaml)."""
+def _magics(file):
+    """The first and the last bytes of a file, as many as the MCAP magic has; None where they cannot be read."""
+    try:
+        with file.open('rb') as f:
+            head = f.read(len(MCAP_MAGIC))
+            f.seek(-min(len(MCAP_MAGIC), os.fstat(f.fileno()).st_size), os.SEEK_END)
+            return head, f.read(len(MCAP_MAGIC))
+    except OSError:
+        return None, None
+
+
+def bag_info(path):
+    """The rosbag2_bagfile_information of a bag directory (its metadata.yaml), checked before any file it names
+    is opened.
+
+    Parameters
+    ----------
+    path : Path
+        The bag directory.
+
+    Returns
+    -------
+    dict
+        With storage_identifier (str), relative_file_paths (names of regular files inside the bag) and
+        custom_data (a mapping or None) and topics_with_message_count (topic_metadata with name and type) where
+        given.
+
+    Raises
+    ------
+    InputError
+        No metadata.yaml, or one that is too large, not UTF-8 text, not YAML, nested too deep or not of a bag's
+        shape; a file it names outside the bag, missing or not a regular file.
+    """
     meta_path = path / 'metadata.yaml'
     if not meta_path.exists():
         raise InputError(f'{path}: not a rosbag2 directory (no metadata.yaml)')
+    document = _read_yaml(regular_file(meta_path, 'bag metadata file', MAX_METADATA_BYTES))
+    info = document.get('rosbag2_bagfile_information') if isinstance(document, dict) else None
+    problem = _shape_problem(info)
+    if problem:
+        raise InputError(f'{meta_path}: unreadable metadata: {problem}')
+    for name in info['relative_file_paths']:
+        if PurePath(name).is_absolute() or '..' in PurePath(name).parts:
+            raise InputError(f'{meta_path}: relative_file_paths names {name[:80]!r}, outside the bag directory')
+        regular_file(path / name, 'bag file', limit=None)
+    return info
+
+
+def _read_yaml(file):
+    """The YAML document of a metadata file; an InputError, without the file's text, if it is not one."""
     try:
-        return yaml.safe_load(meta_path.read_text())['rosbag2_bagfile_information']
-    except (yaml.YAMLError, KeyError, TypeError) as exc:
-        raise InputError(f'{meta_path}: unreadable metadata: {one_line(exc)}') from None
+        text = file.read_bytes().decode()
+        depth = 0
+        for event in yaml.parse(text, Loader=yaml.CSafeLoader):  # libyaml's loader overflows the C stack when deep
+            depth += isinstance(event, yaml.CollectionStartEvent) - isinstance(event, yaml.CollectionEndEvent)
+            if depth > MAX_NESTING:
+                raise InputError(f'{file}: unreadable metadata: nested more than {MAX_NESTING} levels deep')
+        return yaml.load(text, Loader=yaml.CSafeLoader)
+    except OSError as exc:
+        raise InputError(f'{file}: cannot read: {exc.strerror or exc}') from None
+    except UnicodeDecodeError as exc:
+        raise InputError(f'{file}: unreadable metadata: not UTF-8 text (byte {exc.start})') from None
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        where = f' (line {mark.line + 1}, column {mark.column + 1})' if mark else ''
+        raise InputError(f'{file}: unreadable metadata: not YAML: {exc.problem or exc.context}{where}') from None
+    except (yaml.YAMLError, ValueError) as exc:  # ValueError: a value YAML cannot build, e.g. a date 2024-13-01
+        raise InputError(f'{file}: unreadable metadata: {one_line(exc)}') from None
+
+
+def _shape_problem(info):
+    """What keeps `info` from being a rosbag2_bagfile_information the readers can use, None if nothing."""
+    if not isinstance(info, dict):
+        return 'no rosbag2_bagfile_information mapping'
+    if not isinstance(info.get('storage_identifier'), str):
+        return 'storage_identifier is missing or not a name'
+    names = info.get('relative_file_paths')
+    if not isinstance(names, list) or not all(isinstance(n, str) and n and '\0' not in n for n in names):
+        return 'relative_file_paths is missing or not a list of file names'
+    if not isinstance(info.get('custom_data') or {}, dict):
+        return 'custom_data is not a mapping'
+    topics = info.get('topics_with_message_count') or []
+    if not isinstance(topics, list) or not all(
+            isinstance(t, dict) and isinstance(t.get('topic_metadata'), dict)
+            and all(isinstance(t['topic_metadata'].get(key), str) for key in ('name', 'type')) for t in topics):
+        return 'topics_with_message_count is not a list of topics with a name and type'
+    return None
 
 
 def bag_files(path):
     """The MCAP files of a bag directory (or the .mcap file itself) and its custom data."""
-    if path.is_file():
-        return [path], {}
-    if not path.exists():
-        raise InputError(f'{path}: no such file or directory')
-    info = _info(path)
-    if info.get('storage_identifier') != 'mcap':
-        raise InputError(f'{path}: storage {info.get("storage_identifier")!r} is not supported (mcap only)')
-    return [path / p for p in info.get('relative_file_paths', [])], dict(info.get('custom_data') or {})
+    if not path.is_dir():
+        return [regular_file(path, 'MCAP file', limit=None)], {}
+    info = bag_info(path)
+    if info['storage_identifier'] != 'mcap':
+        raise InputError(f'{path}: storage {info["storage_identifier"][:80]!r} is not supported (mcap only)')
+    return [path / p for p in info['relative_file_paths']], dict(info.get('custom_data') or {})
 
 
 def _sqlite3(path):
     """Whether `path` is a rosbag2 directory in sqlite3 storage (read through rosbags: no chunks to check)."""
-    return path.is_dir() and (path / 'metadata.yaml').is_file() and _info(path).get('storage_identifier') == 'sqlite3'
+    return path.is_dir() and bag_info(path)['storage_identifier'] == 'sqlite3'
 
 
 @contextlib.contextmanager
@@ -152,6 +281,11 @@ def chunk_data(f, file, chunks, k, on_corrupt):
     CRC checked."""
     index = chunks[k]
     try:
+        if not 1 + 8 <= index.chunk_length <= os.fstat(f.fileno()).st_size - index.chunk_start_offset:
+            raise ValueError(f'the chunk index gives it {index.chunk_length} bytes from byte '
+                             f'{index.chunk_start_offset}, not within the file')
+        if index.uncompressed_size > MAX_CHUNK_BYTES:
+            raise ValueError(f'{index.uncompressed_size} bytes uncompressed, more than the {MAX_CHUNK_BYTES} read')
         f.seek(index.chunk_start_offset + 1 + 8)  # past the record's opcode and length
         chunk = Chunk.read(ReadDataStream(BytesIO(f.read(index.chunk_length - 1 - 8))))
         if (chunk.compression, chunk.uncompressed_size) != (index.compression, index.uncompressed_size):
@@ -238,14 +372,18 @@ def _messages(records):
 
 def iter_messages(path, topics=None, on_corrupt=warn_skipped):
     """(topic, message type, log time ns, message) of a bag directory or .mcap file, as iter_serialized."""
-    store = typestore()
     for topic, msgtype, stamp, data in iter_serialized(path, topics, on_corrupt):
-        try:
-            message = store.deserialize_cdr(data, msgtype)
-        except (SerdeError, KeyError) as exc:  # not the CDR of a message of its type, or a type unknown here
-            raise InputError(f'{path}: unreadable {msgtype} on {topic} (logged at {stamp * 1e-9:.6f} s): '
-                             f'{one_line(exc)}') from None
-        yield topic, msgtype, stamp, message
+        yield topic, msgtype, stamp, deserialize(path, topic, msgtype, stamp, data)
+
+
+def deserialize(path, topic, msgtype, stamp, data):
+    """The message of CDR `data` logged on `topic` of the bag `path` at `stamp` (ns); an InputError naming them
+    if it is not the CDR of a message of its type or its type is unknown here."""
+    try:
+        return typestore().deserialize_cdr(data, msgtype)
+    except (SerdeError, KeyError) as exc:
+        raise InputError(f'{path}: unreadable {msgtype} on {topic} (logged at {stamp * 1e-9:.6f} s): '
+                         f'{one_line(exc)}') from None
 
 
 def read_bag(path):
@@ -267,20 +405,36 @@ def read_bag(path):
                     estimates.append((stamp_s, values, _finite(estimate_std(msg))))
         if not frames:
             raise InputError(f'{path}: no SampleFrame topics under {NAMESPACE}')
-        recording = _assemble(frames, path, custom)
+        recording, spans = _assemble(frames, path, custom)
+    if skipped:
+        absent = [topic[len(NAMESPACE):] for topic, msgtype in bag_topics(path).items()
+                  if msgtype == SAMPLE_FRAME and topic.startswith(NAMESPACE) and topic[len(NAMESPACE):] not in frames]
+        warn_cost(data_cost(path, spans, recording.sample_period, absent))
     estimates.sort(key=lambda e: e[0])
     truth.sort(key=lambda e: e[0])
     return BagContents(recording=recording, estimates=estimates, truth=truth, metadata=custom)
 
 
+def warn_cost(cost):
+    """Log data_cost's warning, if any."""
+    if cost:
+        log.warning('warning: %s', cost)
+
+
+def check_period(path, period):
+    """An InputError unless the sample period of a bag's frames is positive and finite."""
+    if not 0 < period < math.inf:
+        raise InputError(f'{path}: sample period {period} is not positive and finite')
+
+
 def _assemble(frames, path, custom):
-    """Concatenate each signal's frames and cut all signals to the time span they share."""
+    """Concatenate each signal's frames and cut all signals to the time span they share: the Recording and
+    {signal: (first stamp, end) ns} of the frames read."""
     periods = {p for fs in frames.values() for _, p, _ in fs}
     if len(periods) != 1:
         raise InputError(f'{path}: frames have different sample periods {sorted(periods)}')
     period = periods.pop()
-    if not period > 0:
-        raise InputError(f'{path}: sample period {period} is not positive')
+    check_period(path, period)
     series = {}
     for name, fs in sorted(frames.items()):  # in the order iter_chunks checks them, to name the same gap
         fs.sort(key=lambda f: f[0])
@@ -291,8 +445,8 @@ def _assemble(frames, path, custom):
                 raise InputError(f'{path}: /emla/{name} has a gap or overlap at t = {stamp * 1e-9:.6f} s')
             expected = stamp + round(len(data) * period * 1e9)
         series[name] = (start, np.concatenate([d for _, _, d in fs]))
-    first = max(s for s, _ in series.values())
-    last = min(s + round(len(d) * period * 1e9) for s, d in series.values())
+    spans = {name: (start, start + round(len(data) * period * 1e9)) for name, (start, data) in series.items()}
+    first, last = max(s for s, _ in spans.values()), min(e for _, e in spans.values())
     if last <= first:
         raise InputError(f'{path}: the signal topics share no time span')
     n = round((last - first) * 1e-9 / period)
@@ -301,6 +455,6 @@ def _assemble(frames, path, custom):
         offset = round((first - start) * 1e-9 / period)
         signals[name] = data[offset:offset + n]
     return Recording(sample_period=period, signals=signals, start_time=first * 1e-9, source=str(path),
-                     metadata=custom)
+                     metadata=custom), spans
 
 
