@@ -1,6 +1,6 @@
 """The model-discrepancy workflow on closed-loop data with a hidden effect it is not told about.
 
-Each effect of physics.md at a strength a real actuator could have (varied +-20 %), on actuators with
+Each effect of docs/physics.md §6.2 at a strength a real actuator could have (varied +-20 %), on actuators with
 parameters +-20 % around Table 1, under the PID position loop of emla_sim.datasets with 5 mA current noise and
 1 um position quantisation: the effect must be named and the gap between model and measurement at least
 halved. Without an effect the answer must be `none`.

@@ -345,7 +345,7 @@ def test_bad_parameter_changes_fail_early():
 
 # ---- the effect registry ----
 
-def test_registry_names_match_physics_md():
+def test_registry_makes_effects_by_name():
     assert set(EFFECTS) >= {'coulomb_friction', 'return_spring', 'resistance_drift', 'inductance_saturation',
                             'force_constant_variation'}
     assert make_effect('return_spring', stiffness=500.0) == ReturnSpring(stiffness=500.0)

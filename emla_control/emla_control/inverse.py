@@ -1,6 +1,6 @@
 """The inverse-system law of the EMLA, its state feedback, and the state estimates it runs on.
 
-Inverse system (physics.md). The coil current the mechanics needs for a motion s(t) and the voltage that
+Inverse system (docs/physics.md §5). The coil current the mechanics needs for a motion s(t) and the voltage that
 drives it follow from the two model equations read backwards:
 
     I* = (m s'' + B s' + Fl) / Km,    u = R I* + L dI*/dt + Km s'

@@ -152,11 +152,6 @@ def estimate_std(msg):
     return dict(zip(PARAMETER_NAMES, (float(s) for s in msg.std)))
 
 
-def estimate_covariance(msg):
-    """The 6 x 6 covariance of a ParameterEstimate (PARAMETER_NAMES order; NaN where unknown)."""
-    return np.asarray(msg.covariance, dtype=float).reshape(len(PARAMETER_NAMES), len(PARAMETER_NAMES))
-
-
 # ---- emla_msgs/EffectEstimate ----
 
 def effect_message(stamp, values, std=None):
@@ -171,11 +166,6 @@ def effect_message(stamp, values, std=None):
 def effect_values(msg):
     """{name: value} of an EffectEstimate."""
     return dict(zip(msg.names, (float(v) for v in msg.values)))
-
-
-def effect_std(msg):
-    """{name: one-sigma} of an EffectEstimate."""
-    return dict(zip(msg.names, (float(s) for s in msg.std)))
 
 
 # ---- emla_msgs/ArxModel ----

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from emla_core.data import SIGNAL_NAMES
 from emla_core.errors import InputError
 from emla_core.files import regular_file
 from emla_core.recording import Recording
@@ -27,7 +28,6 @@ from emla_core.units import parse_assignments, parse_unit
 
 from .schema import typestore
 
-SIGNAL_NAMES = ('voltage', 'current', 'position', 'velocity', 'force')
 SCALARS = ('std_msgs/msg/Float64', 'std_msgs/msg/Float32')
 ARRAYS = ('std_msgs/msg/Float64MultiArray', 'std_msgs/msg/Float32MultiArray')
 JOINT_STATE = 'sensor_msgs/msg/JointState'
