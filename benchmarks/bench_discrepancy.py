@@ -3,7 +3,7 @@ import dataclasses
 import time
 
 from benchmarks.harness import Row
-from emla_control import scenarios
+from emla_bench import scenarios
 from emla_identification.discrepancy import diagnose
 from emla_sim.effects import CoulombFriction
 

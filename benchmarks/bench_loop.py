@@ -3,7 +3,7 @@ seconds per wall second, against the same loop without the identifier (its share
 import dataclasses
 
 from benchmarks.harness import Row, best_time
-from emla_control import scenarios
+from emla_bench import scenarios
 
 DURATION = 2.0  # s simulated
 

@@ -17,7 +17,7 @@ setup(
     zip_safe=False,
     maintainer='emla developers',
     maintainer_email='dev@emla.invalid',
-    description='Adaptive inverse-system control and its closed-loop scenarios.',
+    description='Adaptive inverse-system control: the law, the stroke reference, the controller node.',
     license='Apache-2.0',
     entry_points={
         'console_scripts': [

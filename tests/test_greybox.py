@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from emla_control import scenarios
+from emla_bench import scenarios
 from emla_core.errors import InputError
 from emla_core.parameters import TABLE1
 from emla_core.recording import Recording

@@ -13,7 +13,7 @@ import yaml
 from mcap_ros2.reader import read_ros2_messages
 from rosbags.highlevel import AnyReader
 
-from emla_control import scenarios
+from emla_bench import scenarios
 from emla_core import messages
 from emla_core.bag import iter_messages, read_bag, typestore
 from ros_isolation import VENV_BIN, processes

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 import yaml
 
-from emla_cli.launcher import scenario_parameters
-from emla_control import scenarios
+from emla_bench import scenarios
+from emla_bench.node_parameters import scenario_parameters
 from emla_core.bag import write_recording
 from emla_core.model_file import read
 from emla_sim.datasets import closed_loop, random_parameters

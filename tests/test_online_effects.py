@@ -5,7 +5,7 @@ plant (tests/independent_plant.py: a dithered PID loop, an elasto-plastic fricti
 import numpy as np
 import pytest
 
-from emla_control import scenarios
+from emla_bench import scenarios
 from emla_core.errors import InputError
 from emla_core.model_file import Model, ModelEffect
 from emla_identification.online import OnlineIdentifier

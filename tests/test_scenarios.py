@@ -8,8 +8,8 @@ import json
 import numpy as np
 import pytest
 
+from emla_bench import scenarios
 from emla_cli import cli
-from emla_control import scenarios
 
 CASE_KEYS = {'nominal', 'changed_fixed', 'changed_adaptive'}
 METRIC_KEYS = {'rms_tracking_error', 'max_overshoot', 'settling_time', 'peak_current'}

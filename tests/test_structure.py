@@ -12,19 +12,21 @@ import pytest
 
 from ros_isolation import REPO
 
-PACKAGES = ('emla_core', 'emla_sim', 'emla_identification', 'emla_control', 'emla_cli')
-# Which packages each may import (besides itself). control uses the simulated plant for its in-process loop.
+PACKAGES = ('emla_core', 'emla_sim', 'emla_identification', 'emla_control', 'emla_bench', 'emla_cli')
+# Which packages each may import (besides itself). The bench (the closed loop with the simulated plant) sits
+# above both the plant and the controller, so the controller never needs the simulation.
 ALLOWED = {
     'emla_core': set(),
     'emla_sim': {'emla_core'},
     'emla_identification': {'emla_core'},
-    'emla_control': {'emla_core', 'emla_identification', 'emla_sim'},
-    'emla_cli': {'emla_core', 'emla_sim', 'emla_identification', 'emla_control'},
+    'emla_control': {'emla_core', 'emla_identification'},
+    'emla_bench': {'emla_core', 'emla_sim', 'emla_identification', 'emla_control'},
+    'emla_cli': {'emla_core', 'emla_sim', 'emla_identification', 'emla_control', 'emla_bench'},
 }
 
 
 def modules():
-    """{dotted module name: source path} of the five Python packages in the repository."""
+    """{dotted module name: source path} of the Python packages in the repository."""
     found = {}
     for package in PACKAGES:
         for path in sorted((REPO / package / package).rglob('*.py')):

@@ -20,7 +20,7 @@ HELP = 'Run the plant, sensor, identifier and controller nodes as a ROS 2 graph 
 
 
 def description():
-    from emla_control.scenarios import catalogue
+    from emla_bench.scenarios import catalogue
     return f"""\
 Run the plant, sensor, identifier and controller nodes as a ROS 2 graph of separate processes and record
 every topic to a bag.
@@ -56,7 +56,8 @@ def _interrupt(signum, frame):
 
 
 def run(args):
-    from emla_cli.launcher import LaunchError, launch, scenario_parameters
+    from emla_bench.node_parameters import scenario_parameters
+    from emla_cli.launcher import LaunchError, launch
 
     bag = Path(args.bag) if args.bag else default_bag(args.scenario)
     check_outputs({'--json': args.json}, [args.model_file], args.force, {'--bag': (bag, BAG)})

@@ -14,7 +14,7 @@ HELP = 'Run a closed-loop adaptive-control comparison (nominal / changed fixed /
 
 
 def description():
-    from emla_control.scenarios import catalogue
+    from emla_bench.scenarios import catalogue
     return f"""\
 Run a closed-loop adaptive-control comparison in this process and report the tracking of each case:
   nominal           plant unchanged, controller with the exact parameters
@@ -36,7 +36,7 @@ def add_arguments(parser):
 
 
 def run(args):
-    from emla_control import scenarios  # numba and the identifier load only when a scenario runs
+    from emla_bench import scenarios  # numba and the identifier load only when a scenario runs
 
     scenario = scenarios.get(args.name)
     check_outputs({'--json': args.json, '--plot': args.plot}, force=args.force)

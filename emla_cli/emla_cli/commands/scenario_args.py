@@ -12,7 +12,7 @@ def add_arguments(parser):
 def scenario_and_duration(args):
     """(Scenario, duration s) the arguments ask for; InputError for an unknown scenario, a bad model file or
     a duration that is not positive."""
-    from emla_control import scenarios
+    from emla_bench import scenarios
 
     scenario = scenarios.get(args.scenario)
     if args.model_file:

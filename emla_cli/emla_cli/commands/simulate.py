@@ -20,7 +20,7 @@ HELP = 'Simulate a scenario in-process and record it as a bag.'
 
 
 def description():
-    from emla_control.scenarios import catalogue
+    from emla_bench.scenarios import catalogue
     return f"""\
 Simulate a scenario in this process (no ROS graph, many times faster than real time) and record it as a
 bag laid out like the one `emla launch` records: the same topics, 1 ms frames of 10 kHz samples, and

@@ -16,6 +16,8 @@ import textwrap
 
 import numpy as np
 
+from emla_control.controller import ADAPTED_EFFECTS, DEFAULT_BANDWIDTH, DEFAULT_DAMPING, InverseSystemController
+from emla_control.reference import StrokeReference
 from emla_core.errors import InputError
 from emla_core.parameters import TABLE1, ActuatorParameters
 from emla_identification.online import OnlineIdentifier
@@ -23,9 +25,7 @@ from emla_sim.effects import CoulombFriction, ParameterChange, ResistanceDrift, 
 from emla_sim.plant import Plant
 from emla_sim.sensor import Sensor, SensorConfig
 
-from .controller import ADAPTED_EFFECTS, DEFAULT_BANDWIDTH, DEFAULT_DAMPING, InverseSystemController
 from .loop import FRAME_SAMPLES, run_closed_loop
-from .reference import StrokeReference
 
 # Case -> (plant changed, controller adapting).
 CASES = {
