@@ -57,6 +57,41 @@ def test_packages_depend_only_one_way():
     assert wrong == []
 
 
+
+def package_imports():
+    """{package: the other packages of the suite its modules import}."""
+    found = {package: set() for package in PACKAGES}
+    for name, path in modules().items():
+        package = name.split('.')[0]
+        found[package].update(t.split('.')[0] for t in imports(name, path) if t.split('.')[0] != package)
+    return found
+
+
+def test_the_allowed_directions_have_no_cycle():
+    order, left = [], dict(ALLOWED)
+    while left:
+        ready = [package for package, below in left.items() if below <= set(order)]
+        assert ready, f'the packages {sorted(left)} depend on each other in a circle'
+        order += ready
+        left = {package: below for package, below in left.items() if package not in ready}
+
+
+def test_the_controller_needs_neither_the_simulation_nor_the_bench():
+    assert package_imports()['emla_control'] & {'emla_sim', 'emla_bench'} == set()
+
+
+def test_the_bench_sits_above_the_simulation_and_the_controller():
+    found = package_imports()
+    assert {'emla_sim', 'emla_control'} <= found['emla_bench']
+    assert [package for package, below in found.items() if 'emla_bench' in below] == ['emla_cli']
+
+
+@pytest.mark.parametrize('package', PACKAGES)
+def test_package_xml_declares_what_the_code_imports(package):
+    declared = set(re.findall(r'<(?:exec_|build_)?depend>(emla_\w+)</', (REPO / package / 'package.xml').read_text()))
+    assert package_imports()[package] <= declared
+    assert declared - {'emla_msgs'} <= ALLOWED[package]
+
 def test_no_import_cycle_between_modules():
     known = modules()
     graph = {name: {t for t in imports(name, path) if t in known and t != name} for name, path in known.items()}
