@@ -18,12 +18,14 @@ from .rls import RecursiveLeastSquares
 
 DEFAULT_ORDERS = (2, 2, 1)
 DEFAULT_SIGNALS = ('voltage', 'current')  # (input u, output y)
+# Largest orders taken: na, nb (the regressor has na + nb columns; higher orders fit noise) and the delay nk
+MAX_ORDERS = {'na': 100, 'nb': 100, 'nk': 10_000}
 
 
 def _check_orders(na, nb, nk):
     for name, value in (('na', na), ('nb', nb), ('nk', nk)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
-            raise ValueError(f'ARX order {name} must be a non-negative integer, got {value!r}')
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 0 <= value <= MAX_ORDERS[name]:
+            raise ValueError(f'ARX order {name} must be an integer in [0, {MAX_ORDERS[name]}], got {value!r}')
     if na + nb == 0:
         raise ValueError('ARX orders na and nb cannot both be zero')
     return int(na), int(nb), int(nk)
