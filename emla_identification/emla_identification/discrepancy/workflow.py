@@ -294,11 +294,6 @@ def _disagreement(adequacy):
     return sum(max(a.ratio - 1.0, 0.0) for a in adequacy.values())
 
 
-def _best(assessments):
-    """The best-ranked assessment if it is significant, else None."""
-    return assessments[0] if assessments and assessments[0].significant else None
-
-
 def rank(base, candidates):
     """Assessments of `candidates` added to the model `base` (a Fit), best score first."""
     return sorted((assess(base, c) for c in candidates), key=lambda a: -a.score)
