@@ -1,15 +1,5 @@
-"""Find what the model is missing: name the effect, add it, show the gap shrink.
-
-Fits the nominal two-equation model (u = R I + L dI/dt + Km v, m dv/dt = F - B v - Fl) to DATA, compares
-each subsystem's k-step-ahead prediction from its measured inputs with the measurement, ranks the candidate
-effects (coulomb_friction, return_spring, resistance_drift, inductance_saturation, force_constant_variation,
-sensor_delay and any registered with emla_identification.discrepancy.register_candidate) by the share of the
-held-out residual each explains, adds the best one if it is significant, re-identifies and reports the gap
-(NRMSE per signal) before and after; then looks for a second effect.
-
-DATA: CSV (t,voltage,current,position or t,force,position), rosbag2 directory or .mcap file.
-The JSON goes to stdout unless --json is given.
-"""
+"""`emla discrepancy`: the effect a model lacks named and added, the gap shown shrinking (the workflow is
+emla_identification.discrepancy; what the command does for its user is description(), its help)."""
 import sys
 from pathlib import Path
 
