@@ -5,7 +5,7 @@ sqlite3) and bare .mcap files. Columns (or variables) are matched to the suite's
 current, position, velocity, force) by `columns` ('NAME=SOURCE,...'), else by their names (also the usual
 short ones: time, u, i, x, v, f); units come from `units` ('NAME=UNIT,...'), else from the header
 ('x_mm', 'x [mm]', 'x (mm)'), else SI. What was understood is kept in `recording.inputs` and how time was
-read in `recording.sampling`, for the commands' JSON.
+read in `recording.sampling`, for the commands' JSON. Values beyond MAX_MAGNITUDE in SI are refused.
 """
 from pathlib import Path
 
@@ -21,9 +21,12 @@ SIGNAL_NAMES = ('voltage', 'current', 'position', 'velocity', 'force')
 ALIASES = {'t': ('t', 'time'), 'voltage': ('voltage', 'u'), 'current': ('current', 'i'),
            'position': ('position', 'x'), 'velocity': ('velocity', 'v'), 'force': ('force', 'f')}
 BAG_SUFFIXES = ('.mcap', '.db3')
+# Largest magnitude of a value in SI: no actuator signal comes near it, and squares and products of the
+# identification's regressors stay far from float overflow.
+MAX_MAGNITUDE = 1e100
 
 
-def load(path, *, columns=None, units=None, topics=None, sample_period=None):
+def load(path, *, columns=None, units=None, topics=None, sample_period=None, delimiter=None, decimal=None):
     """A Recording of the data in a CSV file, MATLAB file, rosbag2 directory or .mcap file.
 
     Parameters
@@ -40,6 +43,9 @@ def load(path, *, columns=None, units=None, topics=None, sample_period=None):
         'NAME=TOPIC[:FIELD[INDEX]][,...]' of a bag whose topics are not the suite's (see emla_core.bag.foreign).
     sample_period : float, optional
         Sample period in s for data without a time column.
+    delimiter, decimal : str, optional
+        Delimiter (',', ';', '|', 'tab') and decimal mark ('.', ',') of a CSV file, where the guess from its
+        header and first rows is not enough.
 
     Returns
     -------
@@ -54,32 +60,40 @@ def load(path, *, columns=None, units=None, topics=None, sample_period=None):
     path = Path(path)
     if not path.exists():
         raise InputError(f'{path}: no such file or directory')
-    if path.is_dir() or path.suffix in BAG_SUFFIXES:
-        for flag, value in (('--columns', columns), ('--sample-period', sample_period)):
-            if value is not None:
-                raise InputError(f'{path}: {flag} applies to CSV and MAT files; map bag topics with --topics')
+    bag = path.is_dir() or path.suffix in BAG_SUFFIXES
+    mat = not bag and path.suffix.lower() == '.mat'
+    tables, csv = 'CSV and MAT files; map bag topics with --topics', 'CSV files'
+    for flag, value, applies, scope in (
+            ('--columns', columns, not bag, tables), ('--sample-period', sample_period, not bag, tables),
+            ('--topics', topics, bag, 'bags; map columns with --columns'),
+            ('--delimiter', delimiter, not (bag or mat), csv), ('--decimal', decimal, not (bag or mat), csv)):
+        if value is not None and not applies:
+            raise InputError(f'{path}: {flag} applies to {scope}')
+    if bag:
         from emla_core.bag.foreign import load_bag
-        return load_bag(path, topics, units)
-    if topics is not None:
-        raise InputError(f'{path}: --topics applies to bags; map columns with --columns')
-    if path.suffix.lower() == '.mat':
-        from emla_core.tables import read_mat_columns
-        return from_columns(read_mat_columns(path), str(path), columns=columns, units=units,
+        recording = load_bag(path, topics, units)
+        for name, values in recording.signals.items():
+            _in_range(values, 1.0, str(path), f'signal {name}', 'sample', 0)
+        return recording
+    if mat:
+        from emla_core.tables import mat_vectors, read_mat_columns
+        chosen = _choose(mat_vectors(path), columns, sample_period, str(path))
+        return from_columns(read_mat_columns(path, chosen.values()), str(path), columns=columns, units=units,
                             sample_period=sample_period, row='element', first=1)
-    return read_csv(path, columns=columns, units=units, sample_period=sample_period)
+    return read_csv(path, columns=columns, units=units, sample_period=sample_period, delimiter=delimiter,
+                    decimal=decimal)
 
 
-def read_csv(path, *, columns=None, units=None, sample_period=None):
-    """A Recording from a CSV file with a header row (see `load` for the mapping of columns and units)."""
+def read_csv(path, *, columns=None, units=None, sample_period=None, delimiter=None, decimal=None):
+    """A Recording from a CSV file with a header row (see `load` for the mapping, units and CSV dialect)."""
     from emla_core.tables import read_csv_columns
-    return from_columns(read_csv_columns(path), str(path), columns=columns, units=units,
+    return from_columns(read_csv_columns(path, delimiter, decimal), str(path), columns=columns, units=units,
                         sample_period=sample_period, row='data row', first=1)
 
 
 def from_columns(table, source, *, columns=None, units=None, sample_period=None, row='sample', first=0):
     """A Recording of named columns {name: array} (see `load`); `row`/`first` name places in messages."""
-    chosen = _match(table, parse_assignments('--columns', columns, ('t', *SIGNAL_NAMES)), source,
-                    skip=('t',) if sample_period is not None else ())
+    chosen = _choose(table, columns, sample_period, source)
     given_units = parse_assignments('--units', units, ('t', *SIGNAL_NAMES))
     unmapped = sorted(set(given_units) - set(chosen))
     if unmapped:
@@ -98,22 +112,44 @@ def from_columns(table, source, *, columns=None, units=None, sample_period=None,
         else:
             scale, unit, origin = 1.0, SIGNAL_UNITS[signal], 'SI (assumed)'
         inputs[signal] = {'source': column, 'unit': unit, 'scale': scale, 'unit_from': origin}
-        values[signal] = table[column] * scale
+        values[signal] = _in_range(table[column], scale, source, f'column {column}', row, first)
     signals = {**{name: v for name, v in table.items() if name not in chosen.values()},
                **{name: v for name, v in values.items() if name != 't'}}
     if 't' in values:
-        if sample_period is not None:
-            raise InputError(f'{source}: give either a time column or --sample-period, not both')
         period, start, jitter = steady_period(values['t'], source, inputs['t']['source'], row, first)
-    elif sample_period is None:
-        raise InputError(f'{source}: missing column t (time): map one with --columns t=NAME, or give '
-                         f'--sample-period S (columns: {", ".join(table)})')
     else:
         if not 0.0 < float(sample_period) < float('inf'):
             raise InputError(f'{source}: --sample-period must be a positive number of seconds, got {sample_period}')
         period, start, jitter = float(sample_period), 0.0, 0.0
     return Recording(sample_period=period, signals=signals, start_time=start, source=source, inputs=inputs,
                      sampling={'period': period, 'jitter': jitter})
+
+
+def _choose(names, columns, sample_period, source):
+    """{signal: column} of the column `names` for the --columns mapping `columns` (see `_match`), with a time
+    column unless there is a `sample_period`."""
+    chosen = _match(names, parse_assignments('--columns', columns, ('t', *SIGNAL_NAMES)), source,
+                    skip=('t',) if sample_period is not None else ())
+    if 't' in chosen and sample_period is not None:
+        raise InputError(f'{source}: give either a time column or --sample-period, not both')
+    if 't' not in chosen and sample_period is None:
+        raise InputError(f'{source}: missing column t (time): map one with --columns t=NAME, or give '
+                         f'--sample-period S (columns: {", ".join(names)})')
+    return chosen
+
+
+def _in_range(raw, scale, source, what, row, first):
+    """`raw` * `scale` (the values in SI), once none is beyond MAX_MAGNITUDE in magnitude; `what`, `row` and
+    `first` name the place of one that is."""
+    with np.errstate(over='ignore'):   # an overflow to inf is refused below
+        values = raw * scale if scale != 1.0 else raw
+    beyond = np.abs(values) > MAX_MAGNITUDE
+    if beyond.any():
+        k = int(np.argmax(beyond))
+        given = f' ({raw[k]:.6g} times the unit factor {scale:g})' if scale != 1.0 else ''
+        raise InputError(f'{source}: {what} at {row} {k + first} is {values[k]:.6g} in SI{given}, beyond the '
+                         f'{MAX_MAGNITUDE:g} the suite computes with; check the data and its unit (--units)')
+    return values
 
 
 def _match(table, explicit, source, skip=()):

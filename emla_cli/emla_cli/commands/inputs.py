@@ -1,13 +1,17 @@
 """What the commands that read data share: the data flags, loading with them, and what was understood."""
 import sys
 
+from .numbers import add_number
+
 DATA_HELP = """\
 Data in your own names and units (CSV, MATLAB .mat, rosbag2 directory in MCAP or sqlite3, .mcap file):
   --columns voltage=u_V,current=i_mA,position=x_mm,t=time_ms   which column or MAT variable holds what
   --units current=mA,position=mm,t=ms                           units (a leading minus flips the sign)
   --topics voltage=/u,current=/i,position=/joint_states:position[0]   bag topics of standard messages
-Column headers like x_mm, x [mm] or x (mm) give their unit without flags. Timestamps that jitter (by up to
-10 % of the period) are read at their steady rate; missing samples are named and refused."""
+Column headers like x_mm, x [mm] or x (mm) give their unit without flags. A CSV file may start with a byte
+order mark (Excel's "CSV UTF-8"), quote its header, and use ';' or tabs with decimal commas: this is seen from
+its first lines, else say it with --delimiter ';' --decimal ','. Timestamps that jitter (by up to 10 % of the
+period) are read at their steady rate; missing samples are named and refused."""
 JITTER_NOTE = 1e-3  # relative jitter from which the command says on stderr that it read the steady rate
 
 
@@ -22,20 +26,25 @@ def add_data_arguments(parser):
     group.add_argument('--topics', metavar='NAME=TOPIC[:FIELD[INDEX]][,...]',
                        help='bag topics of std_msgs Float64/Float32, Float64MultiArray, sensor_msgs JointState '
                             '(position|velocity|effort, joint by index or name) or emla_msgs SampleFrame')
-    group.add_argument('--sample-period', type=float, metavar='S',
-                       help='sample period in s of data without a time column')
+    add_number(group, '--sample-period', low=1e-9, high=3600, unit='s', metavar='S',
+               help='sample period in s of data without a time column')
+    group.add_argument('--delimiter', choices=(',', ';', '|', 'tab'),
+                       help='delimiter of a CSV file (default: found from its header)')
+    group.add_argument('--decimal', choices=('.', ','),
+                       help='decimal mark of a CSV file (default: , if the delimiter is not and the rows have one)')
 
 
 def foreign(args):
     """Whether any data flag is given."""
-    return any(getattr(args, flag) is not None for flag in ('columns', 'units', 'topics', 'sample_period'))
+    return any(getattr(args, flag) is not None
+               for flag in ('columns', 'units', 'topics', 'sample_period', 'delimiter', 'decimal'))
 
 
 def load_data(args, path=None):
     """The Recording of `path` (default: args.data) read with the data flags."""
     from emla_core.data import load
     return load(path or args.data, columns=args.columns, units=args.units, topics=args.topics,
-                sample_period=args.sample_period)
+                sample_period=args.sample_period, delimiter=args.delimiter, decimal=args.decimal)
 
 
 def understood(recording, command):
