@@ -144,7 +144,7 @@ def test_unreadable_bag_corner_cases(tmp_path, case):
     (['--orders', '2', '2', '1'], '--orders applies to --model arx only'),
     (['--model', 'arx', '--input', 'voltage'], '--input and --output go together'),
     (['--model', 'arx', '--input', 'voltage', '--output', 'speed'], 'run.csv: missing column(s) speed'),
-    (['--forgetting', '0'], '--forgetting 0: must be a number in (0, 1]'),
+    (['--forgetting', '0'], '--forgetting 0: must be a number in [0.5, 1]'),
     (['--forgetting', 'often'], '--forgetting often'),
     (['--model', 'electrical'], None),  # fine: a control case
 ])

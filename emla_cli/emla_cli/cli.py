@@ -42,9 +42,16 @@ def _command_module(name):
     return importlib.import_module(f'emla_cli.commands.{COMMANDS[name]}')
 
 
+class Parser(argparse.ArgumentParser):
+    """argparse's parser with a usage error in one line, as every other bad input: 'emla COMMAND: error: ...'."""
+
+    def error(self, message):
+        self.exit(2, f'{self.prog}: error: {message} (see {self.prog} --help)\n')
+
+
 def build_parser(names=tuple(COMMANDS)):
     """The parser with the subcommands `names` loaded (all by default)."""
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog='emla',
         description='Simulate, identify, control and diagnose electromagnetic linear actuators (ROS 2 Jazzy).')
     parser.add_argument('--version', action='version', version=f'emla {_version()}')
@@ -57,30 +64,40 @@ def build_parser(names=tuple(COMMANDS)):
 
 
 def main(argv=None):
+    """Run `emla` with the command line `argv` (default: sys.argv[1:]); the exit status (0, 1 for a failed
+    launch, 2 for bad input or usage, 130 when interrupted), with --help, --version and usage errors too."""
     argv = sys.argv[1:] if argv is None else argv
     # Only the named command's module is imported (fast start); --help and usage errors load them all.
     chosen = next((a for a in argv if not a.startswith('-')), None)
     parser = build_parser([chosen] if chosen in COMMANDS else tuple(COMMANDS))
-    args = parser.parse_args(argv)
-    if args.command is None:
-        parser.print_help()
-        return 2
     try:
-        status = _command_module(args.command).run(args) or 0
-        from emla_cli.commands.output import write_stdout
-        write_stdout('')    # flush what the command printed: a full disk or a closed pipe is one line too
-        return status
+        return _run(parser, argv)
     except InputError as exc:
-        print(f'emla {args.command}: error: {exc}', file=sys.stderr)
+        print(f'emla {chosen}: error: {exc}', file=sys.stderr)
         return 2
     except (MemoryError, RecursionError) as exc:   # bugs to fix where they arise; one line here as a last resort
         what = 'out of memory' if isinstance(exc, MemoryError) else 'recursion too deep'
-        print(f'emla {args.command}: error: {what} ({type(exc).__name__}); a bug in emla, please report it',
+        print(f'emla {chosen}: error: {what} ({type(exc).__name__}); a bug in emla, please report it',
               file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f'emla {args.command}: interrupted', file=sys.stderr)
+        print(f'emla {chosen}: interrupted', file=sys.stderr)
         return 130
+
+
+def _run(parser, argv):
+    """Parse `argv` (a numeric option out of range is an InputError) and run its command; the exit status."""
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:   # --help, --version or a usage error, printed already
+        return exc.code
+    if args.command is None:
+        parser.print_help()
+        return 2
+    status = _command_module(args.command).run(args) or 0
+    from emla_cli.commands.output import write_stdout
+    write_stdout('')    # flush what the command printed: a full disk or a closed pipe is one line too
+    return status
 
 
 if __name__ == '__main__':

@@ -11,7 +11,13 @@ import time
 import numpy as np
 import yaml
 
+from emla_core.errors import InputError
+
+from .numbers import add_number
+
 HELP = 'Print the messages of a topic as YAML.'
+MAX_COUNT = 10**9       # messages, and elements shown
+MAX_TIMEOUT = 86400.0   # s: a day
 
 
 def description():
@@ -25,12 +31,12 @@ status 1 when no message came for --timeout seconds.
 
 def add_arguments(parser):
     parser.add_argument('topic', help='topic name, e.g. /emla/parameters')
-    parser.add_argument('--count', '-n', type=int, default=0, metavar='N',
-                        help='exit after N messages (default: until interrupted)')
-    parser.add_argument('--timeout', type=float, default=10.0, metavar='S',
-                        help='give up when no message came for S seconds (default 10)')
-    parser.add_argument('--truncate-length', '-l', type=int, default=128, metavar='K',
-                        help='show the first K elements of longer arrays and strings (default 128)')
+    add_number(parser, '--count', '-n', low=0, high=MAX_COUNT, integer=True, default=0, metavar='N',
+               help='exit after N messages (default: until interrupted)')
+    add_number(parser, '--timeout', low=0, high=MAX_TIMEOUT, open_low=True, unit='s', default=10.0, metavar='S',
+               help='give up when no message came for S seconds (default 10)')
+    add_number(parser, '--truncate-length', '-l', low=0, high=MAX_COUNT, integer=True, default=128, metavar='K',
+               help='show the first K elements of longer arrays and strings (default 128)')
     parser.add_argument('--full-length', '-f', action='store_true', help='print arrays and strings in full')
 
 
@@ -49,6 +55,17 @@ def to_plain(value, limit=None):
     return value
 
 
+def check_topic(name):
+    """InputError (one line) unless `name` is a valid ROS topic name."""
+    from rclpy.exceptions import InvalidTopicNameException
+    from rclpy.validate_topic_name import validate_topic_name
+    try:
+        validate_topic_name(name)
+    except InvalidTopicNameException as exc:
+        reason = str(exc).splitlines()[0].removeprefix('Invalid topic name: ').rstrip(':')
+        raise InputError(f'{name!r} is not a topic name: {reason}') from None
+
+
 def subscriber_qos(publishers):
     """A QoS that matches every publisher: reliable / transient local only if all of them are."""
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -63,6 +80,7 @@ def run(args):
     from emla_core.messages import message_class
     from emla_core.nodes.common import ros_node
 
+    check_topic(args.topic)
     limit = None if args.full_length else args.truncate_length
     received = 0
     with ros_node('emla_echo') as (node, executor):

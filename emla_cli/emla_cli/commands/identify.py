@@ -16,7 +16,6 @@ The JSON goes to stdout unless --json is given. A bag written by the suite may c
 (custom metadata true_resistance, ...); --plot then draws them next to the estimates.
 """
 import itertools
-import math
 import sys
 from pathlib import Path
 
@@ -27,6 +26,7 @@ from emla_core.errors import InputError
 from emla_identification.plausibility import plausibility_warnings
 
 from .inputs import DATA_HELP, add_data_arguments, foreign, load_data, understood, warn
+from .numbers import add_number
 from .output import add_force_argument, check_outputs, emit_json
 
 HELP = 'Identify actuator parameters (grey-box) or an ARX model from a CSV file or a bag.'
@@ -69,10 +69,10 @@ def add_arguments(parser):
     parser.add_argument('--orders', nargs=3, metavar=('NA', 'NB', 'NK'),
                         help='ARX orders: output lags, input lags, input delay in samples (default 2 2 1)')
     memory = parser.add_mutually_exclusive_group()
-    memory.add_argument('--forgetting', default='1', metavar='LAMBDA',
-                        help='forgetting factor in (0, 1] (default 1: no forgetting; memory 1/(1 - LAMBDA) samples)')
-    memory.add_argument('--memory-time', type=float, metavar='S',
-                        help='memory time constant in s instead (LAMBDA = 1 - Ts/S)')
+    add_number(memory, '--forgetting', low=0.5, high=1.0, default=1.0, metavar='LAMBDA',
+               help='forgetting factor in [0.5, 1] (default 1: no forgetting; memory 1/(1 - LAMBDA) samples)')
+    add_number(memory, '--memory-time', low=0, high=1e6, open_low=True, unit='s', metavar='S',
+               help='memory time constant in s instead (LAMBDA = 1 - Ts/S)')
     parser.add_argument('--input', metavar='COL', help='ARX input column (default voltage)')
     parser.add_argument('--output', metavar='COL', help='ARX output column (default current)')
     parser.add_argument('--json', metavar='FILE', help='write the result here instead of stdout')
@@ -85,7 +85,8 @@ def add_arguments(parser):
 
 
 def run(args):
-    model, orders, forgetting = _options(args)
+    model, orders = _options(args)
+    forgetting = args.forgetting
     check_outputs({'--json': args.json, '--plot': args.plot, '--model-out': args.model_out},
                   [args.data, args.model_file], args.force)
     structure = None
@@ -120,7 +121,7 @@ def run(args):
 
 
 def _options(args):
-    """(model or None, orders or None, forgetting) checked before any data is read."""
+    """(model or None, orders or None) checked before any data is read."""
     model = args.model
     if model is not None and model not in MODELS:
         raise InputError(f'--model {model!r}: choose one of {", ".join(MODELS)}')
@@ -136,20 +137,15 @@ def _options(args):
         raise InputError('--input and --output go together')
     orders = None
     if model == 'arx':
-        from emla_identification.arx import DEFAULT_ORDERS
+        from emla_identification.arx import DEFAULT_ORDERS, MAX_ORDERS
         try:
             orders = tuple(int(v) for v in args.orders) if args.orders else DEFAULT_ORDERS
         except ValueError:
             raise InputError(f'--orders {" ".join(args.orders)}: need three integers NA NB NK') from None
-        if min(orders) < 0 or orders[0] + orders[1] == 0:
-            raise InputError(f'--orders {" ".join(map(str, orders))}: need NA, NB, NK >= 0 and NA + NB >= 1')
-    try:
-        forgetting = float(args.forgetting)
-    except ValueError:
-        forgetting = math.nan
-    if not 0.0 < forgetting <= 1.0:
-        raise InputError(f'--forgetting {args.forgetting}: must be a number in (0, 1]')
-    return model, orders, forgetting
+        if min(orders) < 0 or orders[0] + orders[1] == 0 or any(map(int.__gt__, orders, MAX_ORDERS.values())):
+            raise InputError(f'--orders {" ".join(map(str, orders))}: need NA, NB, NK >= 0 and NA + NB >= 1, '
+                             f'NA, NB <= {MAX_ORDERS["na"]}, NK <= {MAX_ORDERS["nk"]}')
+    return model, orders
 
 
 def _memory(args, forgetting, recording):
@@ -171,7 +167,7 @@ def _with_effects(structure, recording, args):
     """(JSON, plot, Model) of a model file's structure with effects identified on `recording`."""
     from emla_identification.discrepancy.fit import with_systematic
     from emla_identification.model import from_fit, identify_model
-    if args.memory_time is not None or float(args.forgetting) != 1.0 or args.plot:
+    if args.memory_time is not None or args.forgetting != 1.0 or args.plot:
         raise InputError('--forgetting, --memory-time and --plot apply to models without effects')
     final = identify_model(structure, recording, args.model_file)
     std, added_std = with_systematic(final)

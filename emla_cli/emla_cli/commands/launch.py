@@ -17,6 +17,7 @@ from . import scenario_args
 from .output import BAG, check_outputs, emit_json, replace_bag
 
 HELP = 'Run the plant, sensor, identifier and controller nodes as a ROS 2 graph and record a bag.'
+MAX_DURATION = 3600.0  # s: an hour of the graph (about as long in wall time)
 
 
 def description():
@@ -34,7 +35,7 @@ node pids) to --json or stdout. Scenarios (the graph runs the adaptive case):
 
 
 def add_arguments(parser):
-    scenario_args.add_arguments(parser)
+    scenario_args.add_arguments(parser, MAX_DURATION)
     parser.add_argument('--bag', metavar='DIR', help='bag directory to record, new or empty (default: '
                                                      'bags/<scenario>-<time>)')
     parser.add_argument('--force', action='store_true', help='replace DIR if it holds a bag already, and FILE if '

@@ -18,6 +18,8 @@ from emla_core import topics
 from emla_core.errors import InputError
 from emla_core.topics import PARAMETER_ESTIMATE, SAMPLE_FRAME, stamp_to_ns
 
+from .numbers import add_number
+
 HELP = 'Republish a recorded bag with its timing (or faster).'
 
 
@@ -41,13 +43,13 @@ ESTIMATES = {topics.PARAMETERS_TOPIC: PARAMETER_ESTIMATE, topics.ARX_MODEL_TOPIC
 
 def add_arguments(parser):
     parser.add_argument('bag', help='rosbag2 directory (MCAP or sqlite3 storage) or .mcap file')
-    parser.add_argument('--rate', type=float, default=1.0, metavar='R',
-                        help='speed factor of the recorded timing; 0 = as fast as a live identifier takes '
-                             'it (default 1)')
+    add_number(parser, '--rate', low=0.01, high=1000, zero=True, default=1.0, metavar='R',
+               help='speed factor of the recorded timing, 0.01 to 1000; 0 = as fast as a live identifier takes '
+                    'it (default 1)')
     parser.add_argument('--topics', nargs='+', metavar='TOPIC',
                         help='play only these topics (default: every SampleFrame and ParameterEstimate topic)')
-    parser.add_argument('--wait', type=float, default=1.0, metavar='S',
-                        help='wait up to S seconds for a subscriber on every played topic (default 1)')
+    add_number(parser, '--wait', low=0, high=3600, unit='s', default=1.0, metavar='S',
+               help='wait up to S seconds for a subscriber on every played topic (default 1)')
 
 
 def _open(args):
@@ -125,8 +127,6 @@ def run(args):
     from emla_core.nodes import common
     from emla_core.nodes.common import ros_node
 
-    if args.rate < 0:
-        raise InputError(f'--rate must be >= 0, got {args.rate}')
     played, start, bag = _open(args)
     with ros_node('emla_play') as (node, executor):
         publishers = {topic: node.create_publisher(

@@ -17,6 +17,7 @@ from . import scenario_args
 from .output import BAG, check_outputs, replace_bag
 
 HELP = 'Simulate a scenario in-process and record it as a bag.'
+MAX_DURATION = 600.0   # s: 6 M samples at 10 kHz, held in memory with the truth and the estimates
 
 
 def description():
@@ -31,7 +32,7 @@ parameter estimates with their full covariance every 10 ms. `emla play` can feed
 
 
 def add_arguments(parser):
-    scenario_args.add_arguments(parser)
+    scenario_args.add_arguments(parser, MAX_DURATION)
     parser.add_argument('--bag', required=True, metavar='DIR', help='bag directory to write (new or empty)')
     parser.add_argument('--force', action='store_true', help='replace DIR if it holds a bag already')
 
