@@ -1,45 +1,219 @@
 """Estimates that physics forbids or that point to a slip in the data's units or signs, as warnings that name
-the parameter, the likely cause and the flag that fixes it.
+the signal, the likely cause and the flag that fixes it.
 
-Signs: the model fixes R, L, m > 0 (and B >= 0), so a negative one means a measured signal runs the other way
-round: current against voltage flips R and L (and Km), position against current flips Km, m and B.
-Units: a moving-coil or solenoid actuator's stroke is millimetres to centimetres and its sample period well
-under 10 ms; a position logged in mm but read as m makes the stroke metres and divides Km and m by 1000 and
-10^6; time in ms read as s multiplies every time constant by 1000.
+Signs. The model u = R I + L dI/dt + Km v, m dv/dt = Km I - B v - Fl fixes R, L, m > 0 and Km > 0 (a positive
+current pushes towards +x). A signal that runs the other way round gives a pattern of signs:
+  current negated    R, L < 0, Km > 0, m, B < 0   (u = -R (-I) ..., the force Km I changes sign)
+  position negated   Km < 0 alone                 (the back-EMF and the force both change sign; m, B stay)
+  voltage negated    R, L, Km, m, B < 0           (the same as current and position negated together)
+so only the one signal whose pattern matches is advised; signs that match none point to poorly determined
+parameters instead.
+
+Units. A unit slip rescales the parameters consistently (a current in mA divides R and L by 1000 and
+multiplies m, B and Fl by 1000), so the equations cannot show it; the magnitudes do: a coil's current is
+milliamps to tens of amps, its supply volts to hundreds, the power it draws at most kilowatts, its stroke
+millimetres to centimetres, its sample period well under 10 ms. And the current can never exceed what the
+voltage drives through the coil's resistance (R I_peak <= U_peak but for back-EMF), which catches a slip
+in data compared with a model of known R (emla compare).
 """
+from dataclasses import dataclass
+
 import numpy as np
 
-MAX_STROKE = 0.5        # m: beyond this the position is probably not in metres
-MAX_SAMPLE_PERIOD = 0.01  # s: beyond this the time is probably not in seconds (or the coil is not resolved)
-MIN_MASS = 1e-5         # kg
-MAX_MASS = 1e3          # kg
+MAX_STROKE = 0.5            # m: beyond this the position is probably not in metres
+MAX_SAMPLE_PERIOD = 0.01    # s: beyond this the time is probably not in seconds (or the coil is not resolved)
+MAX_CURRENT = 1e3           # A: tens of amps are plausible, thousands an mA slip
+MAX_VOLTAGE = 1e3           # V
+MAX_POWER = 1e4             # W: peak voltage times peak current of a coil of these actuators
+SPLIT_RESISTANCE = 1.0      # ohm: U/I of an over-powered record below this means a current slip, above a voltage one
+MAX_RESISTIVE_RATIO = 5.0   # R I_peak / U_peak: the coil's resistance alone needs more voltage than was applied
+MIN_MASS = 1e-5             # kg: below this beside a force constant of N/A, the position is not in metres
+MAX_MASS = 1e4              # kg: above this the time is not in seconds
+PEAK_PERCENTILE = 99.9      # of |signal|, taken as its peak: one glitch does not count
+
+SI_UNITS = {'t': 's', 'voltage': 'V', 'current': 'A', 'position': 'm', 'force': 'N'}
+PREFIXES = {1e-3: 'm', 1e-6: 'u'}
+# (sign of R and L, of Km, of m) each negated signal gives; see the module doc
+SIGN_PATTERNS = {'current': (-1, 1, -1), 'position': (1, -1, 1), 'voltage': (-1, -1, -1)}
+SIGN_CAUSES = {'current': 'against the voltage and the force', 'position': 'against the force of the current',
+               'voltage': 'against the current and the back-EMF', 'force': 'against the position'}
+UNITS = {'resistance': 'ohm', 'inductance': 'H', 'emf_constant': 'N/A', 'mass': 'kg', 'damping': 'N s/m',
+         'load_force': 'N'}
+
+
+@dataclass(frozen=True)
+class Magnitudes:
+    """Peak |voltage| (V), peak |current| (A), the stroke (m) and the sample period (s) of a record; None for
+    a signal it lacks."""
+
+    sample_period: float
+    voltage: float = None
+    current: float = None
+    stroke: float = None
+
+    @classmethod
+    def of(cls, recording):
+        """The magnitudes of a Recording (or anything with `signals` and `sample_period`)."""
+        def peak(name):
+            values = recording.signals.get(name)
+            values = None if values is None else np.abs(np.asarray(values, dtype=float))
+            values = None if values is None else values[np.isfinite(values)]
+            return float(np.percentile(values, PEAK_PERCENTILE)) if values is not None and values.size else None
+        position = recording.signals.get('position')
+        stroke = float(np.ptp(position[np.isfinite(position)])) if position is not None and len(position) else None
+        return cls(recording.sample_period, peak('voltage'), peak('current'), stroke)
+
+    @property
+    def power(self):
+        """Peak voltage times peak current (W), or None."""
+        return None if self.voltage is None or self.current is None else self.voltage * self.current
+
+    @property
+    def apparent_resistance(self):
+        """Peak voltage over peak current (ohm), or None."""
+        return None if self.power is None or self.current == 0 else self.voltage / self.current
 
 
 def plausibility_warnings(parameters, std, recording):
-    """One-line warnings about `parameters` ({name: value}, with one-sigma `std`) identified from `recording`."""
-    warnings = []
+    """One-line warnings about a model of an actuator and the record it was identified from or compared with.
+
+    Parameters
+    ----------
+    parameters : dict
+        {name: value} in SI units (resistance, inductance, emf_constant, mass, damping, load_force; any
+        subset, or none: then only the record's magnitudes are checked).
+    std : dict
+        {name: one-sigma} of the parameters (to tell a negative damping from zero).
+    recording : Recording
+        The record (its signals, sample period and, if foreign, `inputs`: how each signal was read, so the
+        advised flag keeps its unit and sign).
+
+    Returns
+    -------
+    list of str
+        Each names the signal or parameter, the likely cause and the flag that fixes it; empty when all is
+        plausible.
+    """
+    magnitudes = Magnitudes.of(recording)
+    inputs = getattr(recording, 'inputs', None) or {}
+    found = [_signs(parameters, std, recording.signals, inputs),
+             _current(parameters, magnitudes, inputs), _voltage(parameters, magnitudes, inputs),
+             _position(parameters, magnitudes, inputs), _time(parameters, magnitudes, inputs)]
+    return [message for message in found if message]
+
+
+def unit_flag(inputs, name, factor):
+    """The `--units NAME=UNIT` that reads signal `name` `factor` times its present scale (a negative factor
+    flips it), from how it was read (`inputs`, Recording.inputs; SI when absent)."""
+    scale = inputs.get(name, {}).get('scale', 1.0) * factor
+    size, sign = abs(scale), '-' if scale < 0 else ''
+    prefix = next((p for f, p in {1.0: '', **PREFIXES}.items() if np.isclose(size, f, rtol=1e-9)), None)
+    return f'--units {name}={sign}{prefix}{SI_UNITS[name]}' if prefix is not None else f'--units {name}={scale:g}'
+
+
+def _slip(signal, what, inputs, factor, parameters=None, names=()):
+    """'WHAT (consequences): is the SIGNAL in UNIT? give its unit with --units SIGNAL=UNIT'."""
+    flag = unit_flag(inputs, signal, factor)
+    shown = ', '.join(f'{n} {parameters[n]:.3g} {UNITS[n]}' for n in names if n in (parameters or {}))
+    consequence = f' (hence {shown})' if shown else ''
+    name = 'time' if signal == 't' else signal
+    return f'{what}{consequence}: is the {name} in {flag.split("=")[-1]}? give its unit with {flag}'
+
+
+def _signs(parameters, std, signals, inputs):
+    """The sign slip whose pattern the parameters' signs match, advised alone; or the negative ones named."""
     value = parameters.get
-    sigma = lambda name: std.get(name, 0.0) if np.isfinite(std.get(name, np.nan)) else 0.0  # noqa: E731
-    if value('resistance', 1.0) <= 0 or value('inductance', 1.0) <= 0:
-        warnings.append(f'resistance {value("resistance", np.nan):.4g} ohm and inductance '
-                        f'{value("inductance", np.nan):.4g} H must be positive: the current probably runs against '
-                        f'the voltage (sensor mounted the other way?); flip it with --units current=-A')
-    if value('mass', 1.0) <= 0 or value('damping', 0.0) < -3 * sigma('damping'):
-        warnings.append(f'mass {value("mass", np.nan):.4g} kg and damping {value("damping", np.nan):.4g} N s/m '
-                        f'must be positive: the position probably runs against the force of the current; flip it '
-                        f'with --units position=-m')
-    elif value('mass', 1.0) < MIN_MASS:
-        warnings.append(f'mass {value("mass"):.3g} kg is implausibly small (a force constant of '
-                        f'{value("emf_constant", np.nan):.3g} N/A beside it): is the position in mm or um? '
-                        f'give its unit with --units position=mm')
-    elif value('mass', 1.0) > MAX_MASS:
-        warnings.append(f'mass {value("mass"):.3g} kg is implausibly large: is the time in ms? give its unit with '
-                        f'--units t=ms (or --sample-period in s)')
-    position = recording.signals.get('position')
-    if position is not None and len(position) and np.ptp(position) > MAX_STROKE:
-        warnings.append(f'the position spans {np.ptp(position):.3g} m, a stroke of metres: is it in mm? give its '
-                        f'unit with --units position=mm')
-    if recording.sample_period > MAX_SAMPLE_PERIOD:
-        warnings.append(f'the sample period is {recording.sample_period:.3g} s, slow for a coil: is the time in '
-                        f'ms? give its unit with --units t=ms')
-    return warnings
+    sigma = std.get('damping', 0.0)
+    negative = [n for n in ('resistance', 'inductance', 'emf_constant', 'mass') if value(n, 1.0) < 0]
+    if value('damping', 0.0) < -3.0 * (sigma if np.isfinite(sigma) else 0.0):
+        negative.append('damping')
+    if not negative:
+        return None
+    listed = ', '.join(f'{n} {parameters[n]:.4g} {UNITS[n]}' for n in negative)
+    if 'force' in signals:   # m dv/dt = F - B v - Fl: a negated force and a negated position look the same
+        return (f'{listed} must be positive: the force runs {SIGN_CAUSES["force"]}; flip one of them with '
+                f'{unit_flag(inputs, "force", -1)} or {unit_flag(inputs, "position", -1)}')
+    observed = tuple(None if any(n not in parameters for n in names) else
+                     (-1 if any(value(n) < 0 for n in names) else 1)
+                     for names in (('resistance', 'inductance'), ('emf_constant',), ('mass',)))
+    matches = [signal for signal, pattern in SIGN_PATTERNS.items()
+               if all(o is None or o == p for o, p in zip(observed, pattern))]
+    if len(matches) == 1:
+        (signal,) = matches
+        return (f'{listed} {"is" if len(negative) == 1 else "are"} negative: the {signal} runs the other way '
+                f'round ({SIGN_CAUSES[signal]}; its sensor mounted the other way?); flip it with '
+                f'{unit_flag(inputs, signal, -1)}')
+    if matches:   # the mechanical model alone: m < 0 comes from a negated current or a negated voltage
+        return (f'{listed} must be positive: the {" or the ".join(matches)} runs the other way round (--model '
+                f'full tells which); flip it with ' + ' or '.join(unit_flag(inputs, s, -1) for s in matches))
+    return (f'{listed} must be positive, and no single flipped signal gives these signs: the record probably '
+            f'does not determine them (does it excite the actuator?)')
+
+
+def _current(parameters, magnitudes, inputs):
+    """A current in mA read as A: thousands of amps, more than the voltage drives through R, or the power of
+    a small power station at a low apparent resistance."""
+    current, voltage, power = magnitudes.current, magnitudes.voltage, magnitudes.power
+    if current is None:
+        return None
+    resistive = (parameters['resistance'] * current / voltage
+                 if parameters.get('resistance', 0.0) > 0 and voltage else None)
+    overpowered = power is not None and power > MAX_POWER and magnitudes.apparent_resistance < SPLIT_RESISTANCE
+    if current > MAX_CURRENT:
+        why = ''
+    elif resistive is not None and resistive > MAX_RESISTIVE_RATIO:
+        why = (f'; R = {parameters["resistance"]:.3g} ohm needs {parameters["resistance"] * current:.3g} V to '
+               f'drive it, the voltage reaches {voltage:.3g} V')
+    elif overpowered:
+        why = f' at {voltage:.3g} V, a coil drawing {power / 1e3:.3g} kW'
+    else:
+        return None
+    return _slip('current', f'the current reaches {current:.3g} A{why}', inputs, 1e-3, parameters,
+                 ('resistance', 'inductance', 'mass'))
+
+
+def _voltage(parameters, magnitudes, inputs):
+    """A voltage in mV read as V: kilovolts, or the power of a small power station at a high apparent
+    resistance."""
+    voltage, power = magnitudes.voltage, magnitudes.power
+    if voltage is None:
+        return None
+    if voltage > MAX_VOLTAGE:
+        why = ''
+    elif power is not None and power > MAX_POWER and magnitudes.apparent_resistance >= SPLIT_RESISTANCE:
+        why = f' with {magnitudes.current:.3g} A, a coil drawing {power / 1e3:.3g} kW'
+    else:
+        return None
+    return _slip('voltage', f'the voltage reaches {voltage:.3g} V{why}', inputs, 1e-3, parameters,
+                 ('resistance', 'inductance', 'emf_constant'))
+
+
+def _position(parameters, magnitudes, inputs):
+    """A position in mm or um read as m: a stroke of metres, or micrograms moved by newtons per amp."""
+    stroke, mass = magnitudes.stroke, parameters.get('mass', 1.0)
+    if stroke is not None and stroke > MAX_STROKE:
+        factor, names = (1e-3 if stroke * 1e-3 <= MAX_STROKE else 1e-6), ('emf_constant', 'mass')
+        what = f'the position spans {stroke:.3g} m, a stroke of metres'
+    elif 0 < mass < MIN_MASS:
+        factor, names = 1e-3, ('emf_constant',)
+        what = f'the mass {mass:.3g} kg is implausibly small'
+    else:
+        return None
+    return _slip('position', what, inputs, factor, parameters, names)
+
+
+def _time(parameters, magnitudes, inputs):
+    """A time in ms or us read as s: a slow sample period, or a mass of tonnes."""
+    ts, mass = magnitudes.sample_period, parameters.get('mass', 0.0)
+    if ts > MAX_SAMPLE_PERIOD:
+        factor, names = (1e-3 if ts * 1e-3 <= MAX_SAMPLE_PERIOD else 1e-6), ('mass',)
+        what = f'the sample period is {ts:.3g} s, slow for a coil'
+    elif mass > MAX_MASS:
+        factor, names = 1e-3, ()
+        what = f'the mass {mass:.3g} kg is implausibly large'
+    else:
+        return None
+    resistance, inductance = parameters.get('resistance', 0.0), parameters.get('inductance', 0.0)
+    if resistance > 0 and inductance > 0:   # the coil's time constant is stretched with the time axis
+        what += f', its L/R {inductance / resistance:.3g} s'
+    return _slip('t', what, inputs, factor, parameters, names) + ' (or --sample-period in s)'

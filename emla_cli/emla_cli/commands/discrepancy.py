@@ -5,7 +5,7 @@ from pathlib import Path
 
 from emla_core.errors import InputError
 
-from .inputs import DATA_HELP, add_data_arguments, load_data, understood
+from .inputs import DATA_HELP, add_data_arguments, load_data, understood, warn
 from .output import REPORT, add_force_argument, check_outputs, emit_json, json_text
 
 HELP = 'Find what the model is missing: name the effect, add it, show the gap shrink.'
@@ -21,7 +21,9 @@ effects by the share of the held-out prediction error each removes:
   coulomb_friction, return_spring, resistance_drift, inductance_saturation, force_constant_variation,
   sensor_delay, and any you add from Python with register_candidate.
 The best one is named only when it is significant; it is added, the model re-identified and the gap
-(NRMSE per signal) reported before and after; then a second effect is looked for.
+(NRMSE per signal) reported before and after; then a second effect is looked for. Nominal estimates that
+point to a slip in units or signs (a current in mA, a time in ms, a sensor mounted the other way) are
+warned about on stderr with the flag that fixes it, and listed under "warnings" in the JSON.
 
 The JSON goes to stdout unless --json is given.
 
@@ -58,7 +60,8 @@ def run(args):
     with read_warnings() as lost:  # a bag's skipped chunks and the data they cost, for the JSON too
         recording = load_data(args)
     diagnosis = diagnose(recording, names)
-    result = {**diagnosis.to_dict(), **understood(recording, 'discrepancy'), **({'warnings': lost} if lost else {})}
+    result = {**diagnosis.to_dict(), **understood(recording, 'discrepancy')}
+    result['warnings'] = lost + warn(diagnosis.warnings, 'discrepancy')
     files = []
     if args.report:
         files.append((args.report, lambda temporary: _write_report(diagnosis, temporary, json_text(result))))

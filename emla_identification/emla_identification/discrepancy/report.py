@@ -123,6 +123,9 @@ def _markdown(diagnosis, before):
                               + (' after the named ones' if d['effects'] else '') + '; where it lies is below, and a '
                               'new candidate (`register_candidate`) must depend on the signal at the top of its list.',
                               '']}[verdict]
+    if d['warnings']:
+        lines += ['**Warnings**: the estimates point to data in other units or signs than they were read in.', '',
+                  *(f'- {w}' for w in d['warnings']), '']
     if d['effects']:
         lines += ['## Effects named, in turn', '',
                   '| effect | parameters (final joint fit, one sigma) | share of the disagreement removed | '

@@ -42,6 +42,7 @@ from scipy.ndimage import uniform_filter1d
 from emla_core.data import as_recording
 from emla_core.errors import InputError
 
+from ..plausibility import plausibility_warnings
 from .adequacy import EQUATION, assess_adequacy
 from .candidates import library
 from .data import Data, regression_rows
@@ -129,6 +130,7 @@ class Diagnosis:
     before: dict                     # signal -> Prediction of the nominal model
     stages: list = field(default_factory=list)   # Stages, in the order the effects were named
     partial: object = None           # the best candidate after the last stage when it is only a partial match
+    warnings: list = field(default_factory=list)  # the nominal model's implausible values and their likely causes
 
     @property
     def final(self):
@@ -211,6 +213,7 @@ class Diagnosis:
             'reidentified_parameters': _rounded(final.parameters),
             'reidentified_parameters_std': _rounded(self.final_std[0]),
             'method': method(self.data),
+            'warnings': list(self.warnings),
         }
 
 
@@ -259,17 +262,19 @@ def diagnose(data=None, names=None, *, sample_period=None, voltage=None, current
     >>> diagnosis.verdict, diagnosis.to_dict()['missing_effect']    # doctest: +SKIP
     ('explained', 'coulomb_friction')
     """
-    data = Data.from_recording(as_recording(data, sample_period=sample_period, voltage=voltage, current=current,
-                                            position=position, force=force))
+    recording = as_recording(data, sample_period=sample_period, voltage=voltage, current=current, position=position,
+                             force=force)
+    data = Data.from_recording(recording)
     with np.errstate(all='ignore'):   # degenerate data show up as non-finite or unphysical estimates
         nominal = fit(data)
+        warnings = plausibility_warnings(_physical_only(nominal.parameters), nominal.std, recording)
         if not physical(nominal.parameters):
-            raise InputError(f'{data.source}: the nominal model cannot be identified from these data (' +
-                             ', '.join(f'{k} = {v:.4g}' for k, v in nominal.parameters.items()) +
-                             '); does the recording excite the actuator?')
+            found = ', '.join(f'{k} = {v:.4g}' for k, v in nominal.parameters.items())
+            raise InputError(f'{data.source}: the nominal model cannot be identified from these data: ' +
+                             ('; '.join(warnings) or f'{found}; does the recording excite the actuator?'))
         adequacy = assess_adequacy(nominal)
         ranked = rank(nominal, library(data, names))
-        diagnosis = Diagnosis(data, nominal, ranked, adequacy, predict(nominal))
+        diagnosis = Diagnosis(data, nominal, ranked, adequacy, predict(nominal), warnings=warnings)
         if diagnosis.verdict == 'adequate':
             return diagnosis
         current, left = nominal, ranked
@@ -287,6 +292,11 @@ def diagnose(data=None, names=None, *, sample_period=None, voltage=None, current
             named = {stage.assessment.fit.candidates[-1].name for stage in diagnosis.stages}
             left = rank(current, [c for c in library(data, names) if c.name not in named])
         return diagnosis
+
+
+def _physical_only(parameters):
+    """The fit's physical parameters, without its sample period."""
+    return {k: v for k, v in parameters.items() if k != 'sample_period'}
 
 
 def _disagreement(adequacy):
