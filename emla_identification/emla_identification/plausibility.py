@@ -74,7 +74,7 @@ class Magnitudes:
         return None if self.power is None or self.current == 0 else self.voltage / self.current
 
 
-def plausibility_warnings(parameters, std, recording):
+def plausibility_warnings(parameters, std, recording, identified=True):
     """One-line warnings about a model of an actuator and the record it was identified from or compared with.
 
     Parameters
@@ -87,6 +87,9 @@ def plausibility_warnings(parameters, std, recording):
     recording : Recording
         The record (its signals, sample period and, if foreign, `inputs`: how each signal was read, so the
         advised flag keeps its unit and sign).
+    identified : bool, optional
+        Whether the parameters were identified from this record (then a slip's warning names the parameters
+        it distorted) or come from elsewhere, a model file (then they are only measured against the record).
 
     Returns
     -------
@@ -96,9 +99,9 @@ def plausibility_warnings(parameters, std, recording):
     """
     magnitudes = Magnitudes.of(recording)
     inputs = getattr(recording, 'inputs', None) or {}
-    found = [_signs(parameters, std, recording.signals, inputs),
-             _current(parameters, magnitudes, inputs), _voltage(parameters, magnitudes, inputs),
-             _position(parameters, magnitudes, inputs), _time(parameters, magnitudes, inputs)]
+    shown = parameters if identified else {}
+    found = [_signs(parameters, std, recording.signals, inputs)] if identified else []
+    found += [check(parameters, magnitudes, inputs, shown) for check in (_current, _voltage, _position, _time)]
     return [message for message in found if message]
 
 
@@ -111,11 +114,12 @@ def unit_flag(inputs, name, factor):
     return f'--units {name}={sign}{prefix}{SI_UNITS[name]}' if prefix is not None else f'--units {name}={scale:g}'
 
 
-def _slip(signal, what, inputs, factor, parameters=None, names=()):
-    """'WHAT (consequences): is the SIGNAL in UNIT? give its unit with --units SIGNAL=UNIT'."""
+def _slip(signal, what, inputs, factor, shown, names):
+    """'WHAT (hence the parameters `names` of `shown`): is the SIGNAL in UNIT? give its unit with --units
+    SIGNAL=UNIT'."""
     flag = unit_flag(inputs, signal, factor)
-    shown = ', '.join(f'{n} {parameters[n]:.3g} {UNITS[n]}' for n in names if n in (parameters or {}))
-    consequence = f' (hence {shown})' if shown else ''
+    listed = ', '.join(f'{n} {shown[n]:.3g} {UNITS[n]}' for n in names if n in shown)
+    consequence = f' (hence {listed})' if listed else ''
     name = 'time' if signal == 't' else signal
     return f'{what}{consequence}: is the {name} in {flag.split("=")[-1]}? give its unit with {flag}'
 
@@ -150,7 +154,7 @@ def _signs(parameters, std, signals, inputs):
             f'does not determine them (does it excite the actuator?)')
 
 
-def _current(parameters, magnitudes, inputs):
+def _current(parameters, magnitudes, inputs, shown):
     """A current in mA read as A: thousands of amps, more than the voltage drives through R, or the power of
     a small power station at a low apparent resistance."""
     current, voltage, power = magnitudes.current, magnitudes.voltage, magnitudes.power
@@ -168,11 +172,11 @@ def _current(parameters, magnitudes, inputs):
         why = f' at {voltage:.3g} V, a coil drawing {power / 1e3:.3g} kW'
     else:
         return None
-    return _slip('current', f'the current reaches {current:.3g} A{why}', inputs, 1e-3, parameters,
+    return _slip('current', f'the current reaches {current:.3g} A{why}', inputs, 1e-3, shown,
                  ('resistance', 'inductance', 'mass'))
 
 
-def _voltage(parameters, magnitudes, inputs):
+def _voltage(parameters, magnitudes, inputs, shown):
     """A voltage in mV read as V: kilovolts, or the power of a small power station at a high apparent
     resistance."""
     voltage, power = magnitudes.voltage, magnitudes.power
@@ -184,11 +188,11 @@ def _voltage(parameters, magnitudes, inputs):
         why = f' with {magnitudes.current:.3g} A, a coil drawing {power / 1e3:.3g} kW'
     else:
         return None
-    return _slip('voltage', f'the voltage reaches {voltage:.3g} V{why}', inputs, 1e-3, parameters,
+    return _slip('voltage', f'the voltage reaches {voltage:.3g} V{why}', inputs, 1e-3, shown,
                  ('resistance', 'inductance', 'emf_constant'))
 
 
-def _position(parameters, magnitudes, inputs):
+def _position(parameters, magnitudes, inputs, shown):
     """A position in mm or um read as m: a stroke of metres, or micrograms moved by newtons per amp."""
     stroke, mass = magnitudes.stroke, parameters.get('mass', 1.0)
     if stroke is not None and stroke > MAX_STROKE:
@@ -199,10 +203,10 @@ def _position(parameters, magnitudes, inputs):
         what = f'the mass {mass:.3g} kg is implausibly small'
     else:
         return None
-    return _slip('position', what, inputs, factor, parameters, names)
+    return _slip('position', what, inputs, factor, shown, names)
 
 
-def _time(parameters, magnitudes, inputs):
+def _time(parameters, magnitudes, inputs, shown):
     """A time in ms or us read as s: a slow sample period, or a mass of tonnes."""
     ts, mass = magnitudes.sample_period, parameters.get('mass', 0.0)
     if ts > MAX_SAMPLE_PERIOD:
@@ -213,7 +217,9 @@ def _time(parameters, magnitudes, inputs):
         what = f'the mass {mass:.3g} kg is implausibly large'
     else:
         return None
-    resistance, inductance = parameters.get('resistance', 0.0), parameters.get('inductance', 0.0)
+    resistance, inductance = shown.get('resistance', 0.0), shown.get('inductance', 0.0)
     if resistance > 0 and inductance > 0:   # the coil's time constant is stretched with the time axis
         what += f', its L/R {inductance / resistance:.3g} s'
-    return _slip('t', what, inputs, factor, parameters, names) + ' (or --sample-period in s)'
+    elif parameters.get('resistance', 0.0) > 0 and parameters.get('inductance', 0.0) > 0:
+        what += f', longer than the coil\'s L/R of {parameters["inductance"] / parameters["resistance"]:.3g} s'
+    return _slip('t', what, inputs, factor, shown, names) + ' (or --sample-period in s)'

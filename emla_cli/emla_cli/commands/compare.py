@@ -1,11 +1,12 @@
 """`emla compare`: a model file (or two) driven by a record's measured inputs against its measured outputs,
 as MATLAB's compare does; the subsystem predictions of the discrepancy workflow (discrepancy/predict.py)."""
+import math
 import sys
 from pathlib import Path
 
 from emla_core.errors import InputError
 
-from .inputs import DATA_HELP, add_data_arguments, load_data, understood
+from .inputs import DATA_HELP, add_data_arguments, load_data, understood, warn
 from .output import add_force_argument, check_outputs, emit_json
 
 HELP = 'Compare a model file (or two) with measured data: each subsystem predicted from its measured inputs.'
@@ -23,7 +24,10 @@ own measured inputs and every sample is predicted from the measured state a hori
 Fit (%) = 100 (1 - |y - yhat| / |y - mean y|) and NRMSE = |y - yhat| / |y - mean y| per signal. With two
 --model-file the two models are compared side by side on the same data (the nominal and the augmented
 model: the gap shrinking). The JSON goes to stdout unless --json is given; --plot draws measured against
-predicted over the stretch where they differ most.
+predicted over the stretch where they differ most. Data that look read in the wrong units (a current in
+mA, a voltage in mV, a time in ms, a position in mm: their magnitudes, and the current against what the
+model's resistance lets the voltage drive) are warned about on stderr with the flag that fixes it, as is a
+figure that cannot be computed (null in the JSON); both are listed under "warnings".
 
 """ + DATA_HELP
 
@@ -58,15 +62,34 @@ def run(args):
               'nrmse': {m: {s: round(p.nrmse, 6) for s, p in pred.items()} for m, pred in predictions.items()},
               'horizon': {s: {'samples': p.horizon, 'seconds': p.horizon * recording.sample_period}
                           for s, p in next(iter(predictions.values())).items()},
-              **understood(recording, 'compare'), **({'warnings': lost} if lost else {})}
+              **understood(recording, 'compare')}
+    result['warnings'] = lost + warn(_warnings(args.model_file, predictions, recording), 'compare')
     if len(predictions) == 1:   # one model: its figures directly, as the contract's single-model form
         (only,) = predictions
         result['fit_percent'], result['nrmse'] = result['fit_percent'][only], result['nrmse'][only]
     emit_json(result, args.json, [(args.plot, lambda temporary: plot(predictions, recording, temporary))])
     for model, pred in predictions.items():
-        fits = ', '.join(f'{s} {100.0 * (1.0 - p.nrmse):.2f} %' for s, p in pred.items())
+        fits = ', '.join(f'{s} {_percent(p.nrmse)}' for s, p in pred.items())
         print(f'emla compare: {Path(model).name}: fit {fits}', file=sys.stderr)
     return 0
+
+
+def _warnings(paths, predictions, recording):
+    """The data's implausible magnitudes against each model (once each), and the figures that cannot be
+    computed."""
+    from emla_core.model_file import read
+    from emla_identification.plausibility import plausibility_warnings
+
+    found = [w for path in paths for w in plausibility_warnings(read(path).values(), {}, recording, identified=False)]
+    found += [f'{Path(model).name}: the {signal} fit cannot be computed (the measured {signal} does not vary, or '
+              f'the prediction diverges); null in the JSON'
+              for model, pred in predictions.items() for signal, p in pred.items() if not math.isfinite(p.nrmse)]
+    return list(dict.fromkeys(found))
+
+
+def _percent(nrmse):
+    """The fit in percent for the text line, or 'n/a'."""
+    return f'{100.0 * (1.0 - nrmse):.2f} %' if math.isfinite(nrmse) else 'n/a'
 
 
 def plot(predictions, recording, path, window=0.08):
@@ -96,7 +119,7 @@ def plot(predictions, recording, path, window=0.08):
         for (model, pred), colour in zip(predictions.items(), colours):
             p = pred[signal]
             mask = np.isin(p.index, reference.index[shown])
-            label = f'{Path(model).stem} (fit {100 * (1 - p.nrmse):.1f} %)'
+            label = f'{Path(model).stem} (fit {_percent(p.nrmse)})'
             top.plot(recording.start_time + p.index[mask] * ts, p.predicted[mask], color=colour, lw=1, label=label)
             bottom.plot(recording.start_time + p.index[mask] * ts, (p.measured - p.predicted)[mask], color=colour,
                         lw=1, label=Path(model).stem)
