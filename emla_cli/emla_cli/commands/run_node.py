@@ -65,6 +65,8 @@ def _check_params_file(path, ros_args):
         raise InputError(f'{path}: not YAML: {exc.problem} (line {mark.line + 1}, column {mark.column + 1})') from None
     except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
         raise InputError(f'{path}: unreadable params file: {" ".join(str(exc).split())}') from None
+    except RecursionError:
+        raise InputError(f'{path}: nested too deeply to be a params file') from None
     try:
         remove_ros_args(['emla', *ros_args])
     except RuntimeError as exc:  # rcl: "... Error: PROBLEM at line N, at SOURCE:LINE, at SOURCE:LINE"

@@ -120,7 +120,7 @@ from rclpy.signals import SignalHandlerOptions
 
 from emla_core.errors import InputError
 from emla_core.messages import message_class, read_frame_cdr, read_signal_frames_cdr
-from emla_core.nodes.params_file import check_params
+from emla_core.nodes.params_file import check_params, read_params_files
 from emla_core.parameters import PARAMETER_UNITS, TABLE1
 from emla_core.topics import DIAGNOSTICS_TOPIC, QOS, SAMPLE_FRAME, START_TOPIC, to_ns
 from emla_msgs.msg import SampleFrame, SignalFrames
@@ -593,13 +593,14 @@ def run(node_class, args=None):
     use_fastdds_profiles()
     args = sys.argv if args is None else args
     try:
+        files = read_params_files(args)
         rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    except RuntimeError as error:   # rcl: a params file or a ROS argument it cannot parse
+    except (InputError, RuntimeError) as error:   # RuntimeError: rcl cannot parse a params file or ROS argument
         print(f'{node_class.NAME}: error: {" ".join(str(error).split())}', file=sys.stderr)
         return 2
     try:
         node = node_class()
-        check_params(node, args)
+        check_params(node, files)
     except (InputError, ValueError, ParameterException) as error:
         print(f'{node_class.NAME}: error: {error}', file=sys.stderr)
         rclpy.shutdown()

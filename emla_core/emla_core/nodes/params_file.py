@@ -17,9 +17,19 @@ NAMESPACE = '/emla'
 SUITE_NODES = ('recorder', 'plant', 'sensor', 'identifier', 'controller')  # the executables' node names
 
 
-def params_files(args):
-    """The paths given with --params-file in the command line `args` (its ROS arguments)."""
-    return [value for flag, value in zip(args, args[1:]) if flag == '--params-file']
+def read_params_files(args):
+    """{path: YAML tree} of the params files given with --params-file in the command line `args` (its ROS
+    arguments); InputError (one line) for one that is unreadable, not YAML or nested too deeply. Read before
+    rclpy.init: rcl's parser takes minutes over a deeply nested file."""
+    trees = {}
+    for path in (value for flag, value in zip(args, args[1:]) if flag == '--params-file'):
+        try:
+            trees[path] = yaml.safe_load(Path(path).read_text())
+        except RecursionError:
+            raise InputError(f'{path}: nested too deeply to be a params file') from None
+        except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
+            raise InputError(f'{path}: unreadable params file: {" ".join(str(exc).split())}') from None
+    return trees
 
 
 def section_names(tree, prefix=''):
@@ -47,13 +57,9 @@ def suggestion(name, known):
     return f' (did you mean {close[0]!r}?)' if close else ''
 
 
-def check_sections(path, node):
-    """InputError if a section of the params file `path` applies to neither the node named `node` nor another
-    node of the suite."""
-    try:
-        tree = yaml.safe_load(Path(path).read_text())
-    except (OSError, UnicodeDecodeError, yaml.YAMLError, RecursionError) as exc:
-        raise InputError(f'{path}: unreadable params file: {type(exc).__name__}') from None
+def check_sections(path, tree, node):
+    """InputError if a section of the params file `path` (its YAML `tree`) applies to neither the node named
+    `node` nor another node of the suite."""
     known = sorted({node, *(f'{NAMESPACE}/{name}' for name in SUITE_NODES)})
     for section in section_names(tree) if isinstance(tree, dict) else ():
         if not any(matches(section, name) for name in known):
@@ -61,24 +67,24 @@ def check_sections(path, node):
                              f'nodes: {", ".join(known)}')
 
 
-def check_params(node, args):
-    """InputError for a params file (among the ROS arguments `args`) with a section for no node of the suite, or
-    a parameter the constructed `node` did not declare.
+def check_params(node, files):
+    """InputError for a params file with a section for no node of the suite, or a parameter (from a params file
+    or -p NAME:=VALUE) the constructed `node` did not declare.
 
     Parameters
     ----------
     node : rclpy.node.Node
         The node, its parameters declared.
-    args : list of str
-        The process's command line, with its ROS arguments (--params-file FILE, -p NAME:=VALUE).
+    files : dict
+        {path: YAML tree} of the params files of its command line (read_params_files).
 
     Raises
     ------
     InputError
         One line naming the file or the parameter, the closest known name and the known ones.
     """
-    for path in params_files(args):
-        check_sections(path, node.get_fully_qualified_name())
+    for path, tree in files.items():
+        check_sections(path, tree, node.get_fully_qualified_name())
     # rclpy keeps the overrides meant for this node (from every params file section and -p that applies to it)
     # in _parameter_overrides, and declares from them; what no declaration took is a name the node lacks.
     unknown = sorted(set(node._parameter_overrides) - set(node._parameters))
