@@ -143,7 +143,7 @@ def _in_range(raw, scale, source, what, row, first):
     `first` name the place of one that is."""
     with np.errstate(over='ignore'):   # an overflow to inf is refused below
         values = raw * scale if scale != 1.0 else raw
-    beyond = np.abs(values) > MAX_MAGNITUDE
+    beyond = (values > MAX_MAGNITUDE) | (values < -MAX_MAGNITUDE)   # no temporary array of floats
     if beyond.any():
         k = int(np.argmax(beyond))
         given = f' ({raw[k]:.6g} times the unit factor {scale:g})' if scale != 1.0 else ''
@@ -206,7 +206,8 @@ def as_recording(data=None, *, sample_period=None, start_time=0.0, **signals):
     if not given:
         raise InputError(f'no data: give a Recording, a file, or arrays named {", ".join(SIGNAL_NAMES)}')
     if sample_period is None or not 0.0 < float(sample_period) < float('inf'):
-        raise InputError(f'sample_period must be a positive number of seconds with signal arrays, got {sample_period!r}')
+        raise InputError(f'sample_period must be a positive number of seconds with signal arrays, '
+                         f'got {sample_period!r}')
     arrays = {name: np.asarray(values, dtype=float).reshape(-1) for name, values in given.items()}
     return Recording(sample_period=float(sample_period), signals=arrays, start_time=float(start_time),
                      source='arrays')

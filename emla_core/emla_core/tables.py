@@ -102,15 +102,22 @@ def _head(path):
 
 
 def _dialect(path, header, rows, delimiter, decimal):
-    """The _Dialect given, completed from the header (the delimiter that splits it most) and the first data
-    `rows` (a decimal comma where the delimiter is not one and the rows have one)."""
+    """The _Dialect given, completed from the header and the first data `rows`: the delimiter that splits the
+    header and the first row into the same number of fields, the most (else the header the most); a decimal
+    comma where the delimiter is not one and the rows have one."""
     if delimiter is not None and delimiter not in DELIMITERS:
         raise InputError(f'{path}: delimiter {delimiter!r}: use one of , ; | tab')
     if decimal is not None and decimal not in DECIMALS:
         raise InputError(f'{path}: decimal mark {decimal!r}: use . or ,')
     if delimiter is None:
-        candidates = [d for d in (',', ';', '\t', '|') if d != decimal]
-        delimiter = max(candidates, key=lambda d: len(next(csv.reader([header], delimiter=d))))
+        first = next((line for line in rows.splitlines() if line.strip()), '')
+
+        def fields(line, d):
+            return len(next(csv.reader([line], delimiter=d), ()))
+
+        def fit(d):
+            return 1 < fields(header, d) == fields(first, d), fields(header, d)
+        delimiter = max((d for d in (',', ';', '\t', '|') if d != decimal), key=fit)
     delimiter = DELIMITERS[delimiter]
     if decimal is None:
         decimal = ',' if delimiter != ',' and ',' in rows else '.'
@@ -168,8 +175,9 @@ def _parse_error(path, names, dialect, message):
     if value:
         index, text = int(value.group(1)), value.group(2)
         row = _find_row(path, dialect, lambda fields: len(fields) > index and fields[index].strip() == text)
-        mark = f' with decimal mark {dialect.decimal!r}' if dialect.decimal != '.' else ''
-        return f'{path}: not numeric CSV: {text!r} in column {names[index]}{row}{mark}'
+        hint = (f' (read with decimal mark {dialect.decimal!r})' if dialect.decimal != '.'
+                else ' (a decimal comma? give --decimal ,)' if ',' in text else '')
+        return f'{path}: not numeric CSV: {text!r} in column {names[index]}{row}{hint}'
     return f'{path}: not a readable CSV file: {" ".join(message.split())}'
 
 
