@@ -6,7 +6,9 @@ runs with the batch scheduling policy (see _prepare_child) and gets SIGTERM if t
 ends them with SIGINT, then SIGTERM, then SIGKILL after timeouts. The Fast DDS files in /dev/shm of the
 nodes' (and the launcher's) participants are noted while they run and removed at the end where no live
 process uses them: a killed node leaves its files, and even nodes that end cleanly leave their ports' files,
-which `fastdds shm clean` does not find.
+which `fastdds shm clean` does not find. A launcher killed itself (SIGKILL) cannot remove them: the next
+launch removes, before it starts, the Fast DDS files that have not changed for STALE_SHM_AGE s and that no live
+process uses.
 """
 import collections
 import contextlib
@@ -36,6 +38,7 @@ DOMAINS = (*range(215, 233), *range(1, 102))
 BIN = Path(sys.executable).parent
 SHM = Path('/dev/shm')
 SHM_LOOK_PERIOD = 0.25   # s between looks at the shared-memory files of the running nodes
+STALE_SHM_AGE = 60.0     # s unchanged after which a Fast DDS file no process uses is a dead launch's
 
 
 @contextlib.contextmanager
@@ -202,6 +205,16 @@ def own_shm_files(pid):
     return names | {name.removesuffix('_el') for name in names}
 
 
+def stale_shm_files(age=STALE_SHM_AGE):
+    """Names of the Fast DDS files in SHM not modified for `age` s (a participant that is starting has new ones)."""
+    now, names = time.time(), set()
+    for path in SHM.glob('fastrtps_*'):
+        with contextlib.suppress(OSError):  # removed meanwhile
+            if now - path.stat().st_mtime > age:
+                names.add(path.name)
+    return names
+
+
 def remove_unused_shm(names):
     """Remove the Fast DDS files `names` in SHM (with the mutex of each port) that no live process has open or
     mapped."""
@@ -313,6 +326,7 @@ def launch(scenario, duration, bag, node_parameters):
     from emla_core.nodes.common import ros_node
 
     started = time.monotonic()
+    remove_unused_shm(stale_shm_files())  # what a launcher killed earlier left
     parameters = {**node_parameters, 'plant': {**node_parameters.get('plant', {}), 'duration': float(duration),
                                                'start_subscribers': START_SUBSCRIBERS,
                                                'frames_subscribers': FRAMES_SUBSCRIBERS,
