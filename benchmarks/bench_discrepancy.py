@@ -5,11 +5,11 @@ import time
 from benchmarks.harness import Row
 from emla_bench import scenarios
 from emla_identification.discrepancy import diagnose
-from emla_sim.effects import CoulombFriction
+from emla_core.physics import CoulombFriction
 
 
 def run():
-    scenario = dataclasses.replace(scenarios.get('default'), effects=(CoulombFriction(force=1.0),),
+    scenario = dataclasses.replace(scenarios.get('default'), effects=(CoulombFriction(coulomb_force=1.0),),
                                    cases={'adaptive': (True, True)})
     recording = scenario.run_case('adaptive', duration=3.0).recording
     diagnose(recording)           # compile and warm caches outside the timing

@@ -8,7 +8,7 @@ separately, in the `truth` dict.
 
 The plant (SI units; state coil current I, position x, velocity v):
 
-    L(I) dI/dt = u_applied - R(t) I - Km(x) v                     (electrical)
+    L(I, x) dI/dt = u_applied - R(t) I - Km(x) v - I L'(x) v      (electrical)
     m dv/dt    = F_coil(I, x) - B v - Fl - F_extra(x, v, I, t),   dx/dt = v   (mechanical)
 
 with F_coil = Km(x) I; without effects L, R and Km are constants, u_applied = u and F_extra = 0. It is
@@ -24,8 +24,8 @@ gives the same record every time.
 
 Effects (by name; `make_effect(name, **parameters)`, or the classes below):
   in the library: coulomb_friction, return_spring, magnetic_stiffness, resistance_drift,
-                  inductance_saturation, force_constant_variation, sensor_delay, drive_voltage_error,
-                  current_sensor_offset
+                  inductance_saturation, force_constant_variation, position_inductance, sensor_delay,
+                  drive_voltage_error, current_sensor_offset
   not in it:      quadratic_drag, cogging, time_varying_load, force_saturation
 
 Print what each effect does to a record, and the generation time:
@@ -147,6 +147,19 @@ class InductanceSaturation(Effect):
 
     name: ClassVar[str] = 'inductance_saturation'
     saturation_current: float = 4.0
+
+
+@_effect
+@dataclasses.dataclass(frozen=True)
+class PositionInductance(Effect):
+    """The coil moves into the iron: flux psi = L(x) I with L(x) = L0 exp(a (x - xc)), so
+    L(x) dI/dt = u - R I - Km v - I L'(x) v and the co-energy adds the force I^2 L'(x) / 2 along +x,
+    L'(x) = a L(x). growth: a (1/m); center: xc (m). At the default L rises 10 % over the default stroke and
+    the force reaches about 0.5 N at 4 A."""
+
+    name: ClassVar[str] = 'position_inductance'
+    growth: float = 40.0
+    center: float = 1.25e-3
 
 
 @_effect
@@ -303,8 +316,13 @@ def _simulate(p, fx, n, ts, substeps, stroke, period, dither, current_noise, res
     e = fx.get('drive_voltage_error')
     drive = e is not None
     vd, v0, inv_iband = (e.dead_time_drop, e.offset, 1.0 / e.current_band) if drive else (0.0, 0.0, 0.0)
+    e = fx.get('position_inductance')
+    pind = e is not None
+    ga, gc = (e.growth, e.center) if pind else (0.0, 0.0)
     e = fx.get('inductance_saturation')
     lsat = e is not None
+    if lsat and pind:
+        raise ValueError('position_inductance and inductance_saturation together are not modelled')
     inv_isat = 1.0 / e.saturation_current if lsat else 0.0
     e = fx.get('force_saturation')
     fsat = e is not None
@@ -351,13 +369,19 @@ def _simulate(p, fx, n, ts, substeps, stroke, period, dither, current_noise, res
             km = km0 * (1.0 + ka * d + kb * d * d)
         r = r0 * (1.0 + alpha * temp) if drift else r0
         ua = u - vd * tanh(i * inv_iband) - v0 if drive else u
-        if lsat:
+        reluctance = 0.0
+        if pind:   # psi = L(x) I: the back-EMF gains I L'(x) v, the force I^2 L'(x) / 2
+            lx = l0 * math.exp(ga * (x - gc))
+            ua -= i * ga * lx * v
+            reluctance = 0.5 * i * i * ga * lx
+            di = (ua - r * i - km * v) / lx
+        elif lsat:
             q = i * inv_isat
             di = (ua - r * i - km * v) * inv_l0 * (1.0 + q * q)
         else:
             di = (ua - r * i - km * v) * inv_l0
         force = km * fs * tanh(i * inv_fs) if fsat else km * i
-        force -= b * v + fl
+        force += reluctance - b * v - fl
         dz = 0.0
         if fric:
             if -delta < z < delta or z * v < 0.0:

@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 
 from emla_core.errors import InputError
+from emla_core.parameters import TABLE1
+from emla_core.physics import CoulombFriction, ForceConstantVariation, InductanceSaturation, ResistanceDrift, ReturnSpring
 from emla_core.recording import Recording
 from emla_identification.discrepancy import CANDIDATES, Candidate, diagnose, register_candidate
 from emla_identification.discrepancy.residuals import binned, cross_correlation, whiteness
 from emla_sim.datasets import closed_loop, random_parameters
-from emla_sim.effects import (CoulombFriction, ForceConstantVariation, InductanceSaturation, ResistanceDrift,
-                              ReturnSpring)
 
 DURATION = 3.0
 
@@ -25,12 +25,13 @@ def hidden(effect, rng):
     spread = lambda value: value * rng.uniform(0.8, 1.2)  # noqa: E731
     return {
         'none': (),
-        'coulomb_friction': (CoulombFriction(force=spread(1.0)),),                       # 1 N, ~1.5 % of peak force
-        'return_spring': (ReturnSpring(stiffness=spread(2000.0)),),                      # 6 N over the 3 mm stroke
+        'coulomb_friction': (CoulombFriction(coulomb_force=spread(1.0)),),          # 1 N, ~1.5 % of peak force
+        'return_spring': (ReturnSpring(spring_stiffness=spread(2000.0)),),          # 6 N over the 3 mm stroke
         # R +15 % as the coil warms (the paper's bench: +27 %), a warm-up compressed to a 1 s time constant
         'resistance_drift': (ResistanceDrift.fast(spread(1.0), thermal_resistance=spread(10.0)),),
-        'inductance_saturation': (InductanceSaturation(saturation_current=spread(8.0)),),  # L -20 % at 4 A
-        'force_constant_variation': (ForceConstantVariation(curvature=spread(4000.0)),),  # Km -4 % at 3 mm
+        'inductance_saturation': (InductanceSaturation.curve(TABLE1.inductance, spread(8.0)),),  # L -20 % at 4 A
+        # Km -4 % at 3 mm
+        'force_constant_variation': (ForceConstantVariation(emf_constant_curvature=-spread(4000.0) * TABLE1.emf_constant),),
         'sensor_delay': (),
     }[effect]
 

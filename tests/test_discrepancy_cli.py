@@ -19,11 +19,11 @@ from emla_core.bag import write_recording
 from emla_core.data import load
 from emla_core.recording import Recording, write_csv
 from emla_sim.datasets import closed_loop
-from emla_sim.effects import CoulombFriction
+from emla_core.physics import CoulombFriction
 
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLE = REPO / 'bags' / 'example_discrepancy'
-HIDDEN = CoulombFriction(force=1.0)
+HIDDEN = CoulombFriction(coulomb_force=1.0)
 
 
 def example_recording():

@@ -18,7 +18,7 @@ from emla_bench.node_parameters import scenario_parameters
 from emla_core.bag import write_recording
 from emla_core.model_file import read
 from emla_sim.datasets import closed_loop, random_parameters
-from emla_sim.effects import CoulombFriction
+from emla_core.physics import CoulombFriction
 from ros_isolation import VENV_BIN
 
 NOMINAL = ('resistance', 'inductance', 'emf_constant', 'mass', 'damping')
@@ -37,7 +37,7 @@ def learned(tmp_path_factory):
     tmp = tmp_path_factory.mktemp('model')
     truths = {}
     for name, seed in (('A', 0), ('B', 1)):
-        recording, params = closed_loop(PARAMS, duration=3.0, seed=seed, effects=(CoulombFriction(force=1.0),))
+        recording, params = closed_loop(PARAMS, duration=3.0, seed=seed, effects=(CoulombFriction(coulomb_force=1.0),))
         truths[name] = params.physical()
         write_recording(recording, tmp / name)
     out = emla('discrepancy', tmp / 'A', '--model-out', tmp / 'M.yaml')
@@ -99,7 +99,7 @@ def test_launch_gives_the_plant_node_the_models_effects(learned):
     scenario = scenarios.get('default').with_model(read(tmp / 'M.yaml'))
     plant = scenario_parameters(scenario)['plant']
     assert plant['effects'] == ['coulomb_friction'] and plant['resistance'] == read(tmp / 'M.yaml').values()['resistance']
-    assert any(p.startswith('coulomb_friction.force=') for p in plant['effect_parameters'])
+    assert any(p.startswith('coulomb_friction.coulomb_force=') for p in plant['effect_parameters'])
     controller = scenario_parameters(scenario)['controller']    # and the controller compensates it
     assert controller['coulomb_force'] == read(tmp / 'M.yaml').effects[0].values()['coulomb_force']
 
@@ -110,8 +110,21 @@ def test_launch_gives_the_plant_node_the_models_effects(learned):
     ('emla_model: 1\nsample_period: 1e-4\ncolour: red\n', 'unknown key(s) colour'),
     ('emla_model: 1\nsample_period: 1e-4\nparameters: {resistence: 4}\n', 'unknown parameter(s) resistence'),
     ('emla_model: 1\nsample_period: fast\n', 'sample_period must be a finite number'),
-    ('emla_model: 1\nsample_period: -1e-4\n', 'sample_period must be positive'),
+    ('emla_model: 1\nsample_period: -1e-4\n', 'sample_period must be within (0, 10] s'),
     ('emla_model: 1\nsample_period: 1e-4\neffects: [{effect: gremlins, parameters: {x: 1}}]\n', "no candidate 'gremlins'"),
+    # nonsense the physics layer's bounds refuse (issue 19)
+    ('emla_model: 1\nsample_period: 1e-4\nparameters: {resistance: -4}\n', 'parameters.resistance -4 is outside'),
+    ('emla_model: 1\nsample_period: 1e-4\nparameters: {mass: 1e308}\n', 'parameters.mass 1e+308 is outside'),
+    ('emla_model: 1\nsample_period: 1e-4\nparameters: {damping: {value: 2, std: -1}}\n', 'std must be >= 0'),
+    ('emla_model: 1\nsample_period: 1e-4\neffects: [{effect: coulomb_friction, parameters: {coulomb_force: 2}},'
+     ' {effect: coulomb_friction, parameters: {coulomb_force: -1}}]\n', 'coulomb_friction is given twice'),
+    ('emla_model: 1\nsample_period: 1e-4\neffects: [{effect: coulomb_friction, parameters: {coulomb_force: -1}}]\n',
+     'coulomb_force must be within [0, inf] N'),
+    ('emla_model: 1\nsample_period: 1e-4\neffects: [{effect: return_spring, parameters: {spring_stiffness: 1},'
+     ' settings: {colour: red}}]\n', 'unknown setting(s) colour'),
+    ('emla_model: 1\nsample_period: 1e-4\neffects: [{effect: return_spring, parameters: {stiffness: 1}}]\n',
+     'it needs spring_stiffness'),
+    ('emla_model: 1\nsample_period: 1e-4\nparameters: ' + '[' * 5000 + ']' * 5000 + '\n', 'nested too deeply'),
 ])
 def test_a_bad_model_file_is_one_line(learned, tmp_path, text, problem):
     tmp, _ = learned
@@ -125,7 +138,7 @@ def test_the_model_file_format_round_trips(tmp_path):
     from emla_core.model_file import Model, ModelEffect, write
     model = Model(1e-4, {'resistance': (4.0, 0.01), 'mass': (0.036, None)},
                   [ModelEffect('magnetic_stiffness', 'return_spring', {'spring_stiffness': (-2000.0, 3.0)},
-                               {'center': 0.001})], {'data': 'x', 'command': 'test'})
+                               {'spring_center': 0.001})], {'data': 'x', 'command': 'test'})
     write(model, tmp_path / 'm.yaml')
     assert read(tmp_path / 'm.yaml') == model
     assert yaml.safe_load((tmp_path / 'm.yaml').read_text())['effects'][0]['effect'] == 'magnetic_stiffness'

@@ -7,8 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from emla_identification.discrepancy.candidates import CANDIDATES
-from emla_sim.effects import EFFECTS
+from emla_core.physics import CANDIDATES, EFFECTS
 
 DOC = Path(__file__).resolve().parents[1] / 'docs' / 'physics.md'
 

@@ -8,8 +8,9 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from emla_core.parameters import PARAMETER_NAMES, TABLE1, ActuatorParameters
-from emla_sim.effects import (EFFECTS, CoulombFriction, Effect, ForceConstantVariation, InductanceSaturation,
-                              ParameterChange, ResistanceDrift, ReturnSpring, make_effect, register_effect)
+from emla_core.physics import (EFFECTS, CoulombFriction, Effect, ForceConstantVariation, InductanceSaturation,
+                                ResistanceDrift, ReturnSpring, make_effect, register_effect)
+from emla_sim.effects import ParameterChange
 from emla_sim.plant import Plant
 
 TS = 1e-4
@@ -177,8 +178,8 @@ def test_initial_state_and_temperature_without_effects():
 # ---- effects ----
 
 def zero_strength_effects():
-    return [CoulombFriction(force=0.0), ReturnSpring(stiffness=0.0), ResistanceDrift(temperature_coefficient=0.0),
-            InductanceSaturation(saturation_current=math.inf), ForceConstantVariation(curvature=0.0)]
+    return [CoulombFriction(coulomb_force=0.0), ReturnSpring(spring_stiffness=0.0), ResistanceDrift(temperature_coefficient=0.0),
+            InductanceSaturation(inductance_quadratic=0.0), ForceConstantVariation(emf_constant_curvature=0.0)]
 
 
 def test_rk4_with_zero_strength_effects_equals_the_exact_path():
@@ -192,8 +193,9 @@ def test_rk4_with_zero_strength_effects_equals_the_exact_path():
 
 def test_smooth_effects_match_solve_ivp_of_the_written_out_model():
     params = TABLE1.replace(load_force=1.0)
-    effects = [ReturnSpring(stiffness=1500.0, rest_position=1e-3), InductanceSaturation(saturation_current=5.0),
-               ForceConstantVariation(curvature=8000.0, center=2e-3), ResistanceDrift.fast(time_constant=0.01)]
+    effects = [ReturnSpring(spring_stiffness=1500.0, spring_center=1e-3), InductanceSaturation.curve(TABLE1.inductance, 5.0),
+               ForceConstantVariation(emf_constant_curvature=-8000.0 * TABLE1.emf_constant, center=2e-3),
+               ResistanceDrift.fast(time_constant=0.01)]
     drift = effects[3]
     voltages = staircase(300, seed=3)
     result = Plant(params, effects).run(voltages, TS)
@@ -212,7 +214,7 @@ class HookOnly:
 
 
 def test_hook_integration_equals_the_compiled_one():
-    effects = [CoulombFriction(force=2.0), ReturnSpring(), ResistanceDrift.fast(time_constant=0.005),
+    effects = [CoulombFriction(coulomb_force=2.0), ReturnSpring(), ResistanceDrift.fast(time_constant=0.005),
                InductanceSaturation(), ForceConstantVariation()]
     hook_only = [dataclasses.make_dataclass('Hook' + type(e).__name__, [], bases=(HookOnly, type(e)),
                                             frozen=True)(**dataclasses.asdict(e)) for e in effects]
@@ -225,9 +227,9 @@ def test_hook_integration_equals_the_compiled_one():
 
 
 def test_coulomb_friction_below_breakaway_gives_no_motion():
-    friction = CoulombFriction(force=1.0)
+    friction = CoulombFriction(coulomb_force=1.0)
     plant = Plant(effects=[friction])
-    below = 0.9 * R * friction.force / KM  # steady coil force 0.9 Fc
+    below = 0.9 * R * friction.coulomb_force / KM  # steady coil force 0.9 Fc
     result = plant.advance(below, TS, 2000)
     assert np.all(result['position'] == 0.0) and np.all(result['velocity'] == 0.0)
     assert plant.current == pytest.approx(below / R, rel=1e-6)
@@ -235,7 +237,7 @@ def test_coulomb_friction_below_breakaway_gives_no_motion():
 
 def test_coulomb_friction_sliding_speed_and_clean_stop():
     fc, u = 1.0, 3.0
-    plant = Plant(effects=[CoulombFriction(force=fc)])
+    plant = Plant(effects=[CoulombFriction(coulomb_force=fc)])
     plant.advance(u, TS, 3000)
     # sliding: Km I = B v + Fc with u = R I + Km v
     assert plant.velocity == pytest.approx((KM * u / R - fc) / (B + KM ** 2 / R), rel=1e-9)
@@ -249,26 +251,26 @@ def test_coulomb_friction_sliding_speed_and_clean_stop():
 
 def test_coulomb_friction_reversals_do_not_chatter():
     square = np.tile(np.r_[np.full(200, 2.0), np.full(200, -2.0)], 3)
-    velocity = Plant(effects=[CoulombFriction(force=1.0)]).run(square, TS)['velocity']
+    velocity = Plant(effects=[CoulombFriction(coulomb_force=1.0)]).run(square, TS)['velocity']
     signs = np.sign(velocity[np.abs(velocity) > 1e-9])
     assert np.count_nonzero(np.diff(signs)) == 5  # one reversal per voltage flip after the first
 
 
 def test_return_spring_static_equilibrium():
-    spring = ReturnSpring(stiffness=2000.0, rest_position=-1e-3)
+    spring = ReturnSpring(spring_stiffness=2000.0, spring_center=-1e-3)
     plant = Plant(effects=[spring])
     u = 2.0
     plant.advance(u, TS, 5000)  # the slow overdamped pole is at -70 1/s
     assert plant.current == pytest.approx(u / R, rel=1e-9)
-    assert plant.position == pytest.approx(spring.rest_position + KM * (u / R) / spring.stiffness, rel=1e-9)
+    assert plant.position == pytest.approx(spring.spring_center + KM * (u / R) / spring.spring_stiffness, rel=1e-9)
 
 
 def test_inductance_saturation_speeds_up_the_current_rise():
     nominal = Plant().advance(24.0, TS, 3)['current']
-    saturating = Plant(effects=[InductanceSaturation(saturation_current=3.0)]).advance(24.0, TS, 3)['current']
+    saturating = Plant(effects=[InductanceSaturation.curve(TABLE1.inductance, 3.0)]).advance(24.0, TS, 3)['current']
     assert np.all(saturating > nominal * 1.05)
     # the steady state does not depend on the inductance
-    plant = Plant(effects=[InductanceSaturation(saturation_current=3.0)])
+    plant = Plant(effects=[InductanceSaturation.curve(TABLE1.inductance, 3.0)])
     plant.advance(12.0, TS, 3000)
     assert plant.velocity == pytest.approx(KM * 12.0 / (R * B + KM ** 2), rel=1e-9)
 
@@ -298,7 +300,7 @@ def test_resistance_drift_defaults_are_a_slow_copper_coil():
 
 
 def test_force_constant_lower_at_the_stroke_ends():
-    variation = ForceConstantVariation(curvature=4000.0, center=0.0)
+    variation = ForceConstantVariation(emf_constant_curvature=-(4000.0) * TABLE1.emf_constant, center=0.0)
     forces = [Plant(effects=[variation], initial_state=(2.0, x, 0.0)).force for x in (-5e-3, 0.0, 5e-3)]
     assert forces == pytest.approx([0.9 * KM * 2.0, KM * 2.0, 0.9 * KM * 2.0])
     # and in the back-EMF: moving at the stroke end induces less voltage, so the current rises faster
@@ -348,14 +350,14 @@ def test_bad_parameter_changes_fail_early():
 def test_registry_makes_effects_by_name():
     assert set(EFFECTS) >= {'coulomb_friction', 'return_spring', 'resistance_drift', 'inductance_saturation',
                             'force_constant_variation'}
-    assert make_effect('return_spring', stiffness=500.0) == ReturnSpring(stiffness=500.0)
+    assert make_effect('return_spring', spring_stiffness=500.0) == ReturnSpring(spring_stiffness=500.0)
     assert Plant(effects=['coulomb_friction']).effects == (CoulombFriction(),)
     with pytest.raises(ValueError, match='unknown effect'):
         make_effect('magic')
     with pytest.raises(ValueError, match='bad parameters'):
-        make_effect('return_spring', stifness=1.0)
+        make_effect('return_spring', spring_stifness=1.0)
     with pytest.raises(ValueError, match='force'):
-        CoulombFriction(force=-1.0)
+        CoulombFriction(coulomb_force=-1.0)
     with pytest.raises(ValueError, match='once'):
         Plant(effects=['return_spring', ReturnSpring()])
 

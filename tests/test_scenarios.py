@@ -108,10 +108,10 @@ def test_the_law_compensates_a_known_friction_and_spring_exactly():
     """With the plant's own effects in the model, the inverse leaves the friction and spring little to do: the
     tracking comes within a micrometre of that of the same plant without them (the friction's direction is
     smoothed near rest), against 0.1 mm without the compensation."""
-    from emla_sim.effects import CoulombFriction, ReturnSpring
+    from emla_core.physics import CoulombFriction, ReturnSpring
     base = scenarios.get('default')
     with_effects = scenarios.Scenario('test', '', duration=0.4, evaluate_from=0.2, cases={'fixed': (True, False)},
-                                      effects=(CoulombFriction(force=1.0), ReturnSpring(stiffness=1500.0)))
+                                      effects=(CoulombFriction(coulomb_force=1.0), ReturnSpring(spring_stiffness=1500.0)))
     clean = scenarios.Scenario('test', '', duration=0.4, evaluate_from=0.2, cases={'fixed': (False, False)})
     rms = {}
     for label, scenario, effects in (('clean', clean, None), ('compensated', with_effects,

@@ -21,7 +21,8 @@ from emla_control.reference import StrokeReference
 from emla_core.errors import InputError
 from emla_core.parameters import TABLE1, ActuatorParameters
 from emla_identification.online import OnlineIdentifier
-from emla_sim.effects import CoulombFriction, ParameterChange, ResistanceDrift, ReturnSpring
+from emla_core.physics import CoulombFriction, ResistanceDrift, ReturnSpring
+from emla_sim.effects import ParameterChange
 from emla_sim.plant import Plant
 from emla_sim.sensor import Sensor, SensorConfig
 
@@ -34,7 +35,7 @@ CASES = {
     'changed_adaptive': (True, True),
 }
 DEFAULT_CASES = {'adaptive': (False, True)}
-ONLINE_EFFECTS = ('coulomb_friction', 'return_spring')  # estimated online in a scenario's compensated cases
+ONLINE_EFFECTS = (CoulombFriction.name, ReturnSpring.name)  # estimated online in a scenario's compensated cases
 SETTLING_BAND = 0.02  # settled: within 2 % of the stroke of the target until the next move
 
 
@@ -67,22 +68,13 @@ class Scenario:
     def with_model(self, model, source='model file'):
         """This scenario on the actuator of a model file (emla_core.model_file): its nominal parameters (the
         controller starts from them too) and its effects, simulated by the plant in every case; the controller
-        compensates the model's friction and spring."""
-        from emla_sim.model_effects import plant_effects
-        values = model.values()
+        compensates those effects it can (Effect.compensation)."""
         try:
-            params = self.params.replace(**values)
+            params = self.params.replace(**model.values())
         except ValueError as exc:
             raise InputError(f'{source}: {exc}') from None
-        compensated = {}
-        for effect in model.effects:
-            if effect.candidate == 'coulomb_friction':
-                compensated['coulomb_force'] = max(effect.values()['coulomb_force'], 0.0)
-            elif effect.candidate == 'return_spring':
-                compensated.update(spring_stiffness=effect.values()['spring_stiffness'],
-                                   spring_center=float(effect.settings.get('center') or 0.0))
-        return dataclasses.replace(self, params=params, model_effects=plant_effects(model, source),
-                                   controller_effects=compensated)
+        return dataclasses.replace(self, params=params, model_effects=model.plant_effects(source),
+                                   controller_effects=model.compensation())
 
     def sensor(self):
         return Sensor(SensorConfig(sample_period=self.sample_period, seed=self.seed))
@@ -155,7 +147,8 @@ SCENARIOS = {
         'friction_and_spring', 'Table 1 actuator with 1 N of Coulomb friction and a 1500 N/m return spring; the '
         'adaptive controller with the nominal model, then with the friction and spring estimated online along '
         'with the nominal parameters and compensated',
-        duration=1.0, evaluate_from=0.2, effects=(CoulombFriction(force=1.0), ReturnSpring(stiffness=1500.0)),
+        duration=1.0, evaluate_from=0.2, effects=(CoulombFriction(coulomb_force=1.0),
+                                                           ReturnSpring(spring_stiffness=1500.0)),
         cases={'adaptive_nominal_model': (True, True), 'adaptive_augmented_model': (True, True)},
         compensated=('adaptive_augmented_model',)),
     'default': Scenario(

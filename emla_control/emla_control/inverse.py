@@ -36,6 +36,8 @@ import math
 import numba
 import numpy as np
 
+from emla_core.physics import coil_rates
+
 # Layout of the compiled law's coefficient vector.
 (R, L, KM, M, B, FL, K0, K1, K2, L1, L2, TS, SUPPLY, FC, KS, XC) = range(16)
 N_COEFFICIENTS = 16
@@ -129,8 +131,9 @@ def law_voltage(state, c, r0, r1, r2, r3, current, position):
 @numba.njit(cache=True)
 def _derivatives(c, current, x, v, voltage):
     """(I', x', v') of the model: L I' = u - R I - Km v, x' = v, m v' = Km I - B v - Fl - F_e(x, v)."""
-    return ((voltage - c[R] * current - c[KM] * v) / c[L], v,
-            (c[KM] * current - c[B] * v - c[FL] - effect_force(c, x, v)) / c[M])
+    di, dv = coil_rates(current, v, voltage, c[R], c[L], c[KM], c[KM] * current, c[M], c[B],
+                        c[FL] + effect_force(c, x, v), 0.0, 1.0)
+    return di, v, dv
 
 
 @numba.njit(cache=True)

@@ -26,7 +26,7 @@ from pathlib import Path
 import yaml
 
 from emla_core.errors import InputError
-from emla_core.parameters import PARAMETER_NAMES
+from emla_core.parameters import PARAMETER_BOUNDS, PARAMETER_NAMES
 
 FORMAT = 1
 
@@ -54,6 +54,28 @@ class Model:
         """{name: value} of the nominal parameters."""
         return {k: v for k, (v, _) in self.parameters.items()}
 
+    def plant_effects(self, source='model file'):
+        """The physics layer's effects of this model, for the plant; InputError naming one it cannot simulate."""
+        from emla_core.physics import EFFECTS
+        out = []
+        for effect in self.effects:
+            spec = EFFECTS.get(effect.candidate)
+            if spec is None:
+                raise InputError(f'{source}: the plant cannot simulate {effect.effect}: no such effect in the physics '
+                                 f'layer (known: {", ".join(EFFECTS)})')
+            try:
+                out.append(spec.from_model(effect.values(), effect.settings))
+            except ValueError as exc:
+                raise InputError(f'{source}: {exc}') from None
+        return tuple(out)
+
+    def compensation(self):
+        """{law coefficient: value} of the effects the inverse law compensates (Effect.compensation)."""
+        out = {}
+        for effect in self.plant_effects():
+            out.update(effect.compensation())
+        return out
+
     def to_yaml(self):
         def pair(value, std):
             return {'value': float(value), 'std': None if std is None or not math.isfinite(std) else float(std)}
@@ -71,7 +93,7 @@ def _plain(value):
     if isinstance(value, bool):
         return value
     if isinstance(value, (int, float)):
-        return float(value) if math.isfinite(value) else None
+        return None if math.isnan(value) else float(value)   # YAML writes inf as .inf
     return str(value)
 
 
@@ -103,6 +125,8 @@ def read(path):
     path = Path(path)
     try:
         document = yaml.safe_load(path.read_text())
+    except RecursionError:
+        raise InputError(f'{path}: nested too deeply to be a model file') from None
     except FileNotFoundError:
         raise InputError(f'{path}: no such model file') from None
     except (OSError, UnicodeDecodeError) as exc:
@@ -115,12 +139,16 @@ def read(path):
     if unknown:
         raise InputError(f'{path}: unknown key(s) {", ".join(unknown)}')
     period = _number(document.get('sample_period'), path, 'sample_period')
-    if not period > 0:
-        raise InputError(f'{path}: sample_period must be positive, got {period}')
+    if not 0 < period <= 10.0:
+        raise InputError(f'{path}: sample_period must be within (0, 10] s, got {period}')
     parameters = _pairs(document.get('parameters'), path, 'parameters')
     unknown = sorted(set(parameters) - set(PARAMETER_NAMES))
     if unknown:
         raise InputError(f'{path}: unknown parameter(s) {", ".join(unknown)}; known: {", ".join(PARAMETER_NAMES)}')
+    for name, (value, _) in parameters.items():
+        low, high = PARAMETER_BOUNDS[name]
+        if not low <= value <= high:
+            raise InputError(f'{path}: parameters.{name} {value:g} is outside [{low:g}, {high:g}]')
     effects = []
     for j, item in enumerate(document.get('effects') or []):
         where = f'effects[{j}]'
@@ -129,10 +157,40 @@ def read(path):
         settings = item.get('settings') or {}
         if not isinstance(settings, dict):
             raise InputError(f'{path}: {where}.settings must be a mapping')
-        effects.append(ModelEffect(item['effect'], str(item.get('candidate', item['effect'])),
-                                   _pairs(item.get('parameters'), path, f'{where}.parameters'), settings))
+        effect = ModelEffect(item['effect'], str(item.get('candidate', item['effect'])),
+                             _pairs(item.get('parameters'), path, f'{where}.parameters'), settings)
+        if any(e.candidate == effect.candidate for e in effects):
+            raise InputError(f'{path}: {where}: {effect.candidate} is given twice')
+        _check_effect(effect, path, where)
+        effects.append(effect)
     provenance = document.get('provenance') or {}
     return Model(period, parameters, effects, provenance if isinstance(provenance, dict) else {})
+
+
+def _check_effect(effect, path, where):
+    """An effect of the physics layer checked against its parameters and settings (names, bounds); an effect the
+    layer does not know (a user's candidate, registered when it is used) is left to its user."""
+    from emla_core.physics import CANDIDATES, EFFECTS
+    candidate = CANDIDATES.get(effect.candidate)
+    if candidate is None:
+        return
+    given, wanted = set(effect.parameters), set(candidate.parameters)
+    if given != wanted:
+        raise InputError(f'{path}: {where} ({effect.candidate}) has parameters {", ".join(sorted(given)) or "none"}; '
+                         f'it needs {", ".join(sorted(wanted)) or "none"}')
+    spec = EFFECTS.get(effect.candidate)
+    specs = spec.specs() if spec else {}
+    unknown = sorted(set(effect.settings) - set(candidate().settings()) - set(specs))
+    if unknown:
+        raise InputError(f'{path}: {where} ({effect.candidate}) has unknown setting(s) {", ".join(unknown)}')
+    checked = {**{k: v for k, (v, _) in effect.parameters.items()},
+               **{k: v for k, v in effect.settings.items() if v is not None and not isinstance(v, bool)}}
+    for name, value in checked.items():
+        if name in specs:
+            try:
+                specs[name].checked(value, where)
+            except ValueError as exc:
+                raise InputError(f'{path}: {exc}') from None
 
 
 def _number(value, path, where):
@@ -156,8 +214,10 @@ def _pairs(section, path, where):
     for name, entry in section.items():
         if isinstance(entry, dict):
             std = entry.get('std')
-            out[str(name)] = (_number(entry.get('value'), path, f'{where}.{name}.value'),
-                              None if std is None else _number(std, path, f'{where}.{name}.std'))
+            std = None if std is None else _number(std, path, f'{where}.{name}.std')
+            if std is not None and std < 0:
+                raise InputError(f'{path}: {where}.{name}.std must be >= 0, got {std:g}')
+            out[str(name)] = (_number(entry.get('value'), path, f'{where}.{name}.value'), std)
         else:
             out[str(name)] = (_number(entry, path, f'{where}.{name}'), None)
     return out

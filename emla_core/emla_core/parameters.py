@@ -12,6 +12,10 @@ PARAMETER_NAMES = ('resistance', 'inductance', 'emf_constant', 'mass', 'damping'
 # SI units of the ActuatorParameters fields.
 PARAMETER_UNITS = {'resistance': 'ohm', 'inductance': 'H', 'emf_constant': 'V s/m (= N/A)', 'mass': 'kg',
                    'damping': 'N s/m', 'load_force': 'N (opposes +x)', 'supply_voltage': 'V'}
+# Closed bounds a model's parameters must lie in: physics (R, L, Km, m > 0, B >= 0) and a span wider than any
+# electromagnetic actuator's (a coil of a megaohm or a moving part of a thousand tonnes is a unit slip).
+PARAMETER_BOUNDS = {'resistance': (1e-9, 1e6), 'inductance': (1e-12, 1e2), 'emf_constant': (1e-9, 1e5),
+                    'mass': (1e-9, 1e6), 'damping': (0.0, 1e9), 'load_force': (-1e9, 1e9)}
 
 
 @dataclasses.dataclass(frozen=True)

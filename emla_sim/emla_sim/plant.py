@@ -19,8 +19,8 @@ from scipy.linalg import expm
 
 from emla_core.parameters import TABLE1
 
-from .effects import (AMBIENT_TEMPERATURE, Effect, coupled_rates, integrate_interval, integrate_sequence, kernel_vector,
-                      make_effect)
+from emla_core.physics import AMBIENT_TEMPERATURE, Effect, make_effect
+from emla_core.physics.kernel import coil_state, hook_rates, integrate_interval, integrate_sequence, kernel_vector
 
 # RK4 sub-step bound: 10 sub-steps per 0.1 ms sample keep the integration error many orders of magnitude
 # below the sensor noise (5 mA, 1 um) and resolve the electrical time constant L/R = 0.4 ms.
@@ -69,6 +69,8 @@ class Plant:
         for effect in self._effects:
             if not isinstance(effect, Effect):
                 raise TypeError(f'effects must be Effect instances or effect names, got {effect!r}')
+            if effect.simulation_refusal:
+                raise ValueError(f'the plant does not simulate {effect.name}: {effect.simulation_refusal}')
         names = [effect.name for effect in self._effects]
         if len(set(names)) != len(names):
             raise ValueError(f'each effect may be given once, got {names}')
@@ -101,8 +103,8 @@ class Plant:
 
     @property
     def force(self):
-        """Coil force Km(x) I (N)."""
-        return self._params.emf_constant * self._product('emf_factor', self._x) * self._i
+        """Coil force d W'/dx (N): Km I for a moving coil, with the effects' terms."""
+        return coil_state(self._params, self._effects, self._i, self._x)[2]
 
     @property
     def integration(self):
@@ -117,7 +119,7 @@ class Plant:
         State-dependent effects (L(I), Km(x), friction, spring) are functions, not parameters: their
         nominal L and Km are reported.
         """
-        return self._params.scaled(resistance=self._product('resistance_factor', self._temp))
+        return self._params.scaled(resistance=math.prod(e.resistance_factor(self._temp) for e in self._effects))
 
     # ---- advancing ----
     def step(self, voltage, dt):
@@ -252,29 +254,15 @@ class Plant:
     def _row(self):
         return self._i, self._x, self._v, self._temp, self.force
 
-    def _product(self, hook, argument):
-        return math.prod(getattr(effect, hook)(argument) for effect in self._effects)
-
-    def _hook_rates(self, state, u, h):
-        """d(I, x, v, T)/dt from the effect hooks (see effects.py for how they combine)."""
-        i, x, v, temp = state
-        p, effects = self._params, self._effects
-        resistance = p.resistance * self._product('resistance_factor', temp)
-        load = p.load_force + sum(effect.extra_force(x, v) for effect in effects)
-        di, dv = coupled_rates(i, v, u, resistance, p.inductance * self._product('inductance_factor', i),
-                               p.emf_constant * self._product('emf_factor', x), p.mass, p.damping, load,
-                               sum(effect.coulomb_force() for effect in effects), h)
-        return np.array([di, v, dv, sum(effect.temperature_rate(temp, resistance * i * i) for effect in effects)])
-
     def _integrate_hooks(self, u, dt):
-        """Classical RK4 through the effect hooks: same scheme as effects.integrate_interval."""
+        """Classical RK4 through the effect hooks: same scheme as kernel.integrate_interval."""
         n = self._substeps_for(dt)
         h = dt / n
         y = np.array([self._i, self._x, self._v, self._temp])
         for _ in range(n):
-            k1 = self._hook_rates(y, u, h)
-            k2 = self._hook_rates(y + 0.5 * h * k1, u, h)
-            k3 = self._hook_rates(y + 0.5 * h * k2, u, h)
-            k4 = self._hook_rates(y + h * k3, u, h)
+            k1 = hook_rates(self._params, self._effects, y, u, h)
+            k2 = hook_rates(self._params, self._effects, y + 0.5 * h * k1, u, h)
+            k3 = hook_rates(self._params, self._effects, y + 0.5 * h * k2, u, h)
+            k4 = hook_rates(self._params, self._effects, y + h * k3, u, h)
             y = y + h / 6.0 * (k1 + 2.0 * (k2 + k3) + k4)
         return tuple(float(c) for c in y)

@@ -6,6 +6,7 @@ position), with a point velocity estimate and room at the end for re-aligning de
 (current, position, velocity) when simulating; candidate effects are written against it.
 """
 from dataclasses import dataclass, replace
+from typing import ClassVar
 
 import numpy as np
 
@@ -26,6 +27,7 @@ class Data:
     spare: dict            # name -> the MAX_DELAY samples that follow the window
     kinds: tuple           # regressions of regressors.py: ('electrical', 'mechanical') or ('force',)
     source: str = ''
+    max_delay: ClassVar[int] = MAX_DELAY
 
     @classmethod
     def from_recording(cls, recording):

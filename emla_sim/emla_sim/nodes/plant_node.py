@@ -20,7 +20,8 @@ from emla_core.errors import InputError
 from emla_core.nodes import common
 from emla_core.parameters import PARAMETER_NAMES, ActuatorParameters
 from emla_msgs.msg import ParameterEstimate, SampleFrame, SignalFrames
-from emla_sim.effects import EFFECTS, ParameterChange, make_effect
+from emla_core.physics import EFFECTS, make_effect
+from emla_sim.effects import ParameterChange
 from emla_sim.plant import Plant
 
 SPECS = [
@@ -31,9 +32,9 @@ SPECS = [
                 0.0, 1e6),
     common.Spec('initial_position', 0.0, 'position at t = 0 (at rest, no current), m', -1.0, 1.0),
     *common.actuator_specs('true'),
-    common.Spec('effects', Parameter.Type.STRING_ARRAY, f'effects by name, of {sorted(EFFECTS)}'),
+    common.Spec('effects', Parameter.Type.STRING_ARRAY, f'effects by name, of {sorted(n for n, e in EFFECTS.items() if not e.simulation_refusal)}'),
     common.Spec('effect_parameters', Parameter.Type.STRING_ARRAY,
-                "settings of those effects, 'effect.field=value' (SI units, see emla_sim.effects)"),
+                "settings of those effects, 'effect.field=value' (SI units, see docs/physics.md)"),
     common.Spec('change_times', Parameter.Type.DOUBLE_ARRAY, 'times of step parameter changes, s'),
     common.Spec('change_parameters', Parameter.Type.STRING_ARRAY,
                 f'parameter each change scales, of {PARAMETER_NAMES}'),

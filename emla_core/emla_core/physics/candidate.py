@@ -1,0 +1,97 @@
+"""Candidates: an effect's terms in the batch regression of the discrepancy workflow, and their registry.
+
+A candidate adds terms that are linear in its parameters p (a vector of q values, physical units):
+
+    u = R I + (L + p . inductance(s)) dI/dt + Km v + p . voltage(s)      (electrical equation)
+    m dv/dt = F - B v - Fl - p . force(s)                                (mechanical; force opposes +x)
+
+Each term method gets a state s (emla_identification.discrepancy.data: current, position, velocity, voltage,
+force, time at the samples s.index; measured when regressing, predicted when simulating) and returns a (q, n)
+array, or None when the candidate has no term of that kind. Terms that need a signal's history (a thermal
+state, a friction direction) compute it from the measured data once per variant and read it at s.index.
+A candidate may instead (or as well) re-align the data (`realigned`), as a sensor delay does.
+`variants(data)` lists the configurations to search (e.g. thermal time constants, delays); the best one
+represents the candidate.
+
+The built-in candidates live with their effects (physics/effects/, one file each) and share their names,
+parameters and settings. Your own: subclass Candidate, set `name`, `parameters`, `units`, `acts_on` (and
+`signs` if physics fixes them), write the term methods, and decorate the class with `@register_candidate`
+(or give it to an Effect of your own as its `candidate`); the discrepancy workflow then ranks it with the
+built-in ones. Example, a quadratic drag c v |v|:
+
+    @register_candidate
+    class QuadraticDrag(Candidate):
+        name = 'quadratic_drag'
+        parameters = ('drag_coefficient',)
+        units = ('N s^2/m^2',)
+        acts_on = ('mechanical', 'force')
+
+        def force(self, s):
+            return (s.velocity * np.abs(s.velocity))[None]
+"""
+import dataclasses
+from typing import ClassVar
+
+CANDIDATES = {}
+
+
+def register_candidate(cls):
+    """Class decorator: make a Candidate subclass part of the library under `cls.name`."""
+    if not (isinstance(cls, type) and issubclass(cls, Candidate)):
+        raise TypeError(f'register_candidate needs a subclass of Candidate, got {cls!r}')
+    if not cls.name or len(cls.units) != len(cls.parameters):
+        raise ValueError(f'{cls.__name__} needs a name and one unit per parameter')
+    if CANDIDATES.get(cls.name, cls) is not cls:
+        raise ValueError(f'a candidate named {cls.name!r} is already registered ({CANDIDATES[cls.name].__name__})')
+    CANDIDATES[cls.name] = cls
+    return cls
+
+
+def of_effect(parameters):
+    """(names, units) of an effect's Parameters, for a candidate's `parameters` and `units`."""
+    return tuple(p.name for p in parameters), tuple(p.unit for p in parameters)
+
+
+@dataclasses.dataclass(frozen=True)
+class Candidate:
+    """Base class: no terms, no re-alignment; subclasses override what their effect needs."""
+
+    name: ClassVar[str] = ''
+    parameters: ClassVar[tuple] = ()   # names of p's entries
+    units: ClassVar[tuple] = ()
+    acts_on: ClassVar[tuple] = ()      # regressions (emla_identification.regressors kinds) the terms enter
+    signs: ClassVar[tuple] = ()        # per parameter: +1 / -1 when physics fixes its sign, 0 when it does not
+
+    def variants(self, data):
+        """Configurations to search on these data (each a Candidate); default: this one."""
+        return [self]
+
+    def realigned(self, data):
+        return data
+
+    def voltage(self, s):
+        return None
+
+    def inductance(self, s):
+        return None
+
+    def force(self, s):
+        return None
+
+    def held(self, data):
+        """Samples (boolean array) at which the effect holds the moving part still, as static friction does:
+        the force balance does not apply there (the part does not accelerate whatever the other forces);
+        None if it never does."""
+        return None
+
+    def settings(self):
+        """Fixed settings of this variant, {name: value}, reported with the fitted parameters."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.compare}
+
+    def effect_name(self, values):
+        """The name of the effect these fitted parameter values describe (default: the candidate's)."""
+        return self.name
+
+    def reported(self, values, stds, model):
+        """{name: (value, one-sigma)} of the added parameters; `model` holds the re-identified nominal ones."""
+        return {n: (float(v), float(s)) for n, v, s in zip(self.parameters, values, stds)}
