@@ -143,7 +143,7 @@ def register_effect(cls):
 
 
 def make_effect(name, **parameters):
-    """An effect by its registered name, e.g. make_effect('return_spring', spring_stiffness=500.0)."""
+    """An effect by its registered name with some of its parameters and settings (the rest at their defaults)."""
     if name not in EFFECTS:
         raise ValueError(f'unknown effect {name!r}; known: {sorted(EFFECTS)}')
     try:
