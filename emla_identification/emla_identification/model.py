@@ -13,7 +13,7 @@ from emla_core.model_file import Model, ModelEffect, provenance
 
 from .discrepancy.candidates import CANDIDATES
 from .discrepancy.data import Data
-from .discrepancy.fit import NOMINAL, Fit, fit, physical, with_systematic
+from .discrepancy.fit import NOMINAL, ModelOnData, fit, physical, with_systematic
 from .regressors import emf_lag
 
 
@@ -23,10 +23,29 @@ def from_greybox(result, data, command):
                  provenance(data, command))
 
 
-def from_fit(final, names, data, command):
+def from_fit(final, names, data, command, std=None):
     """The Model of a joint fit (the discrepancy's final one): nominal parameters and each candidate's own
-    parameters with their uncertainties (jackknife and systematic), named `names` (one per candidate)."""
-    std, added_std = with_systematic(final)
+    parameters with their uncertainties (jackknife and systematic), named `names` (one per candidate).
+
+    Parameters
+    ----------
+    final : Fit
+        The joint fit.
+    names : list of str
+        The model's name of each of the fit's candidates, in order.
+    data : str
+        The data the fit came from (the model's provenance).
+    command : str
+        The command line that made it (provenance).
+    std : tuple, optional
+        (nominal, added) one-sigma of the fit as `with_systematic(final)` gives them, when already at hand
+        (Diagnosis.final_std); computed here otherwise.
+
+    Returns
+    -------
+    emla_core.model_file.Model
+    """
+    std, added_std = std if std is not None else with_systematic(final)
     nominal = {k: (v, std.get(k)) for k, v in final.parameters.items() if k != 'sample_period'}
     effects = [ModelEffect(name, candidate.name,
                            {p: (float(v), float(s)) for p, v, s in zip(candidate.parameters, final.added[part],
@@ -63,8 +82,29 @@ def identify_model(model, recording, source='model file'):
     return current
 
 
-def model_fit(model, recording, source='model file'):
-    """A Fit that holds the model as given (nothing identified), on `recording`'s data: for predictions."""
+def model_on_data(model, recording, source='model file'):
+    """The model as given (nothing identified) on a record's data, ready to predict it.
+
+    Parameters
+    ----------
+    model : emla_core.model_file.Model
+        Nominal parameters and effects; each effect's variant is the one closest to its settings.
+    recording : Recording
+        The record whose measured inputs drive the predictions.
+    source : str
+        Names the model in errors.
+
+    Returns
+    -------
+    ModelOnData
+        The model's regression coefficients on the record's data (discrepancy.predict.predict takes it).
+
+    Raises
+    ------
+    InputError
+        If the model lacks a parameter these data need or an effect lacks one of its own, or names an effect
+        no candidate is registered for.
+    """
     data = Data.from_recording(recording)
     values = model.values()
     missing = [k for k in (NOMINAL['force'] if 'force' in data.kinds else NOMINAL['electrical'] + NOMINAL['mechanical'])
@@ -84,8 +124,8 @@ def model_fit(model, recording, source='model file'):
         data = candidate.realigned(data)
     theta = _coefficients(values, data)
     parameters = dict(values, sample_period=data.sample_period)
-    return Fit(data, tuple(candidates), theta, np.array(added, dtype=float), np.zeros(len(added)), {}, {}, None,
-               parameters, {}, values, None, None)
+    return ModelOnData(data=data, candidates=tuple(candidates), theta=theta, added=np.array(added, dtype=float),
+                       parameters=parameters, linearised_about=values)
 
 
 def _closest_variant(candidate, settings, data):

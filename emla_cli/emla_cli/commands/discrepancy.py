@@ -70,7 +70,8 @@ def run(args):
         from emla_identification.model import from_fit
         names = [stage.assessment.name for stage in diagnosis.stages]
         files.append((args.model_out, lambda temporary: write(
-            from_fit(diagnosis.final, names, args.data, 'emla ' + ' '.join(sys.argv[1:])), temporary)))
+            from_fit(diagnosis.final, names, args.data, 'emla ' + ' '.join(sys.argv[1:]), diagnosis.final_std),
+            temporary)))
     emit_json(result, args.json, files)
     return 0
 

@@ -25,7 +25,7 @@ from emla_core.bag.report import read_warnings
 from emla_core.errors import InputError
 from emla_identification.plausibility import plausibility_warnings
 
-from .inputs import DATA_HELP, add_data_arguments, foreign, load_data, understood, warn
+from .inputs import DATA_HELP, add_data_arguments, foreign, load_data, understood, unknown_figures, warn
 from .numbers import add_number
 from .output import add_force_argument, check_outputs, emit_json
 
@@ -104,10 +104,10 @@ def run(args):
         else:
             recording, parts = _record(args)
             result, plot, identified = _greybox(recording, parts, model, _memory(args, forgetting, recording), args)
-    if model != 'arx':
-        result['warnings'] = warn(plausibility_warnings(result['parameters'], result['std'], recording), 'identify')
-    if lost:
-        result['warnings'] = lost + result.get('warnings', [])
+    found = [] if model == 'arx' else plausibility_warnings(result['parameters'], result['std'], recording)
+    found += unknown_figures(result)
+    if model != 'arx' or found or lost:   # (an ARX result has warnings only when there are some)
+        result['warnings'] = lost + warn(found, 'identify')
     result.update(understood(recording, 'identify'))
     files = []
     if args.model_out:
@@ -165,17 +165,15 @@ def _command_line():
 
 def _with_effects(structure, recording, args):
     """(JSON, plot, Model) of a model file's structure with effects identified on `recording`."""
-    from emla_identification.discrepancy.fit import with_systematic
     from emla_identification.model import from_fit, identify_model
     if args.memory_time is not None or args.forgetting != 1.0 or args.plot:
         raise InputError('--forgetting, --memory-time and --plot apply to models without effects')
     final = identify_model(structure, recording, args.model_file)
-    std, added_std = with_systematic(final)
     names = [e.effect for e in structure.effects]
     identified = from_fit(final, names, args.data, _command_line())
     result = {'model': 'full', 'samples': len(recording), 'sample_period': recording.sample_period,
-              'parameters': {k: v for k, v in final.parameters.items() if k != 'sample_period'},
-              'std': {k: std[k] for k in final.parameters if k != 'sample_period'},
+              'parameters': {k: v for k, (v, _) in identified.parameters.items()},
+              'std': {k: s for k, (_, s) in identified.parameters.items()},
               'effects': [{'effect': name, 'parameters': {p: v for p, (v, _) in effect.parameters.items()},
                            'std': {p: s for p, (_, s) in effect.parameters.items()}}
                           for name, effect in zip(names, identified.effects)]}

@@ -132,22 +132,16 @@ def design(data, model, candidates, rho=PREFILTER):
 
 
 @dataclass
-class Fit:
-    """The model nominal + `candidates` fitted to `data`."""
+class ModelOnData:
+    """The model nominal + `candidates` on `data` as the coefficients of its regressions: what the subsystem
+    predictions (predict.py) and the residuals need, whether the model was fitted here (a Fit) or given."""
 
     data: object
     candidates: tuple
     theta: dict            # kind -> tied nominal coefficients
     added: np.ndarray      # the candidates' parameters, in order
-    added_std: np.ndarray  # their jackknife one-sigma
-    sigma: dict            # kind -> row weight 1/sigma (the reference's residual std)
-    rms: dict              # kind -> this fit's residual std
-    heldout: np.ndarray    # (FOLDS, kinds): weighted residual sum of squares of each block when left out
-    parameters: dict       # nominal physical parameters (greybox names) of this fit, + 'sample_period'
-    std: dict              # their jackknife one-sigma
-    linearised_about: dict
-    left_out: np.ndarray   # (FOLDS, coefficients): the fit without each block ([nominal of each kind | added])
-    bounds: np.ndarray     # regression rows of each block: bounds[f] .. bounds[f + 1]
+    parameters: dict       # nominal physical parameters (greybox names), + 'sample_period'
+    linearised_about: dict  # the model the candidates' columns and the tie are evaluated about
 
     def added_slices(self):
         """(candidate, slice of `added`) pairs."""
@@ -156,6 +150,25 @@ class Fit:
             out.append((c, slice(start, start + len(c.parameters))))
             start += len(c.parameters)
         return out
+
+    def residuals(self):
+        """{kind: one-step residual of each regression row (rows: data.regression_rows)}."""
+        return {kind: y - phi @ self.theta[kind] - extra @ self.added
+                for kind, (phi, y, extra) in design(self.data, self.linearised_about, self.candidates,
+                                                    rho=None).items()}
+
+
+@dataclass
+class Fit(ModelOnData):
+    """The model nominal + `candidates` fitted to `data`, with its uncertainties and held-out blocks."""
+
+    added_std: np.ndarray  # the added parameters' jackknife one-sigma
+    sigma: dict            # kind -> row weight 1/sigma (the reference's residual std)
+    rms: dict              # kind -> this fit's residual std
+    heldout: np.ndarray    # (FOLDS, kinds): weighted residual sum of squares of each block when left out
+    std: dict              # the nominal parameters' jackknife one-sigma
+    left_out: np.ndarray   # (FOLDS, coefficients): the fit without each block ([nominal of each kind | added])
+    bounds: np.ndarray     # regression rows of each block: bounds[f] .. bounds[f + 1]
 
     def heldout_residuals(self):
         """{kind: one-step residual of each regression row, each block's from the fit that left it out}."""
@@ -171,12 +184,6 @@ class Fit:
                 e[r] = y[r] - phi[r] @ coefficients[f] - extra[r] @ added[f]
             out[kind] = e
         return out
-
-    def residuals(self):
-        """{kind: one-step residual of each regression row (rows: data.regression_rows)}."""
-        return {kind: y - phi @ self.theta[kind] - extra @ self.added
-                for kind, (phi, y, extra) in design(self.data, self.linearised_about, self.candidates,
-                                                    rho=None).items()}
 
 
 def fit(data, candidates=(), reference=None, *, relinearise=True):
@@ -271,10 +278,12 @@ def _solve(data, candidates, model, sigma, rho=PREFILTER):
     values = _physical(kinds, np.vstack((theta, left_out))[:, nominal], data.sample_period)
     names = [name for kind in kinds for name in NOMINAL[kind]]
     added = slice(sum(widths), n)
-    return Fit(data, candidates, {k: theta[sum(widths[:j]):sum(widths[:j + 1])] for j, k in enumerate(kinds)},
-               theta[added], _jackknife_std(left_out[:, added]), sigma, rms, heldout,
-               dict(zip(names, map(float, values[0])), sample_period=data.sample_period),
-               dict(zip(names, map(float, _jackknife_std(values[1:])))), model, left_out, bounds)
+    return Fit(data=data, candidates=candidates,
+               theta={k: theta[sum(widths[:j]):sum(widths[:j + 1])] for j, k in enumerate(kinds)},
+               added=theta[added], parameters=dict(zip(names, map(float, values[0])), sample_period=data.sample_period),
+               linearised_about=model, added_std=_jackknife_std(left_out[:, added]), sigma=sigma, rms=rms,
+               heldout=heldout, std=dict(zip(names, map(float, _jackknife_std(values[1:])))), left_out=left_out,
+               bounds=bounds)
 
 
 def _electrical_instruments(data, model, z):
