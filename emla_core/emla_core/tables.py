@@ -3,7 +3,7 @@ with clear errors: {name: 1-D float array}, all of one length.
 
 CSV files are read as they come from spreadsheets and loggers: a UTF-8 byte order mark (Excel's "CSV UTF-8"),
 quoted headers ("t","u"), and ';'- or tab-separated values with decimal commas are recognised from the header
-and the first data row; `delimiter` and `decimal` say it where that guess is not enough. The rows are parsed
+and the first data rows; `delimiter` and `decimal` say it where that guess is not enough. The rows are parsed
 by pyarrow in blocks, with a progress bar on a terminal for large files. MATLAB variables are listed from
 their headers and only those asked for are loaded.
 """
@@ -14,6 +14,7 @@ import struct
 import sys
 import zlib
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -40,7 +41,7 @@ def read_csv_columns(path, delimiter=None, decimal=None, progress=None):
     delimiter : str, optional
         ',', ';', '|' or 'tab'; found from the header when not given.
     decimal : str, optional
-        '.' or ','; a ',' when the delimiter is not one and the first data row has one, when not given.
+        '.' or ','; when not given, ',' if the delimiter is not one and the first 64 KiB of rows have one.
     progress : bool, optional
         Whether to show a progress bar on stderr; by default only for a file of at least PROGRESS_BYTES when
         stderr is a terminal.
@@ -74,12 +75,15 @@ def read_csv_columns(path, delimiter=None, decimal=None, progress=None):
     return dict(zip(names, columns, strict=True))
 
 
-class _Dialect:
-    """The delimiter and decimal mark of a CSV file, as the csv module and pyarrow take them."""
+class _Dialect(NamedTuple):
+    """The delimiter and decimal mark of a CSV file."""
+    delimiter: str
+    decimal: str
 
-    def __init__(self, delimiter, decimal):
-        self.delimiter, self.decimal = delimiter, decimal
-        self.csv = {'delimiter': delimiter, 'skipinitialspace': True}
+    @property
+    def csv(self):
+        """The options of the csv module's reader for this dialect."""
+        return {'delimiter': self.delimiter, 'skipinitialspace': True}
 
 
 def _head(path):
@@ -93,7 +97,7 @@ def _head(path):
                                  f'characters')
             rows = f.read(MAX_HEADER_CHARS)
     except UnicodeDecodeError as exc:
-        raise InputError(f'{path}: cannot read as CSV text: not UTF-8 ({exc.reason} at byte {exc.start})') from None
+        raise InputError(f'{path}: cannot read as CSV text: not UTF-8 ({exc.reason})') from None
     except OSError as exc:
         raise InputError(f'{path}: cannot read as CSV text: {exc.strerror or exc}') from None
     if not header.strip():
