@@ -55,9 +55,10 @@ def arx_regressors(u, y, na, nb, nk):
 
 
 def fit_percent(y, yhat):
-    """100 (1 - ||y - yhat|| / ||y - mean(y)||)."""
+    """100 (1 - ||y - yhat|| / ||y - mean(y)||); NaN when y does not vary (no fit is defined)."""
     y, yhat = np.asarray(y, dtype=float), np.asarray(yhat, dtype=float)
-    return float(100.0 * (1.0 - np.linalg.norm(y - yhat) / np.linalg.norm(y - y.mean())))
+    spread = np.linalg.norm(y - y.mean())
+    return float(100.0 * (1.0 - np.linalg.norm(y - yhat) / spread)) if spread > 0 else float('nan')
 
 
 def mse(y, yhat):
@@ -157,6 +158,9 @@ def identify_arx(u, y, na, nb, nk, forgetting=1.0, initial_covariance=1e6):
         raise ValueError(f'record of {len(y)} samples is too short for ARX({na}, {nb}, {nk})')
     rls = RecursiveLeastSquares(na + nb, forgetting=forgetting, initial_covariance=initial_covariance)
     rls.update_block(Phi, Y)
+    if not np.all(np.isfinite(rls.theta)):
+        raise ValueError('the recursion gives no finite estimate: the signals are too large or too small for it '
+                         '(give their units with --units)')
     yhat = Phi @ rls.theta
     return ArxModel.from_theta(rls.theta, na, nb, nk, forgetting=rls.forgetting,
                                fit_percent=fit_percent(Y, yhat), mse=mse(Y, yhat))
@@ -217,7 +221,7 @@ class ArxEstimator:
             return ArxModel.from_theta(theta, *self._orders, forgetting=self.rls.forgetting)
         residual = np.append(-theta, 1.0)  # z . residual = y - phi' theta
         squares = max(float(residual @ self._scatter @ residual), 0.0) + self._rows * (self._mean @ residual) ** 2
-        with np.errstate(divide='ignore', invalid='ignore'):  # a constant output has no fit
-            fit = 100.0 * (1.0 - np.sqrt(squares / self._scatter[-1, -1]))
+        spread = self._scatter[-1, -1]
+        fit = 100.0 * (1.0 - np.sqrt(squares / spread)) if spread > 0 else np.nan  # a constant output has no fit
         return ArxModel.from_theta(theta, *self._orders, forgetting=self.rls.forgetting, fit_percent=float(fit),
                                    mse=float(squares / self._rows))

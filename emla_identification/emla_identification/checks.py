@@ -1,19 +1,27 @@
 """Input checks of the grey-box identification: one clear InputError naming the source and the problem."""
+import contextlib
+
 import numpy as np
 
 from emla_core.errors import InputError
 
+from .plausibility import SI_UNITS
 from .regressors import COLUMNS, HISTORY, SIGNALS, default_model, regressions_for
 from .rls import forgetting_factor
 
 MIN_ROWS = 16           # regression rows (samples - HISTORY) below which a record is too short
 _MAX_CONDITION = 1e12   # normalised information matrix above this: a parameter is not excited
+# Peak |signal| (SI) and sample period (s) the regressions hold in double precision: their rows divide
+# differences by Ts^2 and their sums square them, so far beyond these they over- or underflow.
+MAGNITUDES = (1e-30, 1e30)
+SAMPLE_PERIODS = (1e-9, 1e3)
 
 
 def checked(recording, model, forgetting, memory_time=None):
     """(model, regression kinds, lambda) for this recording, or InputError naming its source and the problem."""
     model, kinds, lam = setup(recording, model, forgetting, memory_time)
     check_finite(recording, kinds)
+    check_magnitudes(recording)
     check_length(len(recording), model, recording.source)
     return model, kinds, lam
 
@@ -40,6 +48,38 @@ def check_finite(recording, kinds, first=0):
         if bad.any():
             raise InputError(f'{recording.source or "recording"}: non-finite {name} at sample '
                              f'{first + int(np.argmax(bad))}')
+
+
+def check_magnitudes(recording):
+    """InputError when the sample period or a signal's peak is too far from SI magnitudes for the regressions
+    (a unit far off), naming it and the flag that gives its unit."""
+    source = recording.source or 'recording'
+    low, high = SAMPLE_PERIODS
+    if not low <= recording.sample_period <= high:
+        raise InputError(f'{source}: the sample period {recording.sample_period:.3g} s is beyond what the '
+                         f'identification resolves ({low:g} to {high:g} s): give the time\'s unit with --units '
+                         f't=UNIT (or --sample-period in s)')
+    low, high = MAGNITUDES
+    for name, values in recording.signals.items():
+        values = np.abs(np.asarray(values, dtype=float)) if name in SI_UNITS else np.zeros(0)
+        peak = float(np.max(values[np.isfinite(values)], initial=0.0))
+        if peak and not low <= peak <= high:
+            raise InputError(f'{source}: the {name} peaks at {peak:.3g} {SI_UNITS[name]}, beyond what the '
+                             f'identification holds in double precision ({low:g} to {high:g} '
+                             f'{SI_UNITS[name]}): give its unit with --units {name}=UNIT')
+
+
+@contextlib.contextmanager
+def numerical_failures(source, what):
+    """Turn a numerical failure inside (a singular or non-finite matrix, an overflow) into an InputError: 'SOURCE:
+    WHAT from these data: why' (what: 'the full model cannot be identified'); the library's boundary to its
+    users. Floating-point warnings inside are silenced: their results are checked where they matter."""
+    try:
+        with np.errstate(all='ignore'):
+            yield
+    except (ValueError, ZeroDivisionError, OverflowError, FloatingPointError) as exc:  # LinAlgError: a ValueError
+        reason = str(exc) if type(exc) is ValueError else f'the arithmetic failed ({exc or type(exc).__name__})'
+        raise InputError(f'{source or "recording"}: {what} from these data: {reason}') from None
 
 
 def check_length(samples, model, source):

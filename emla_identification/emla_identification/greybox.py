@@ -14,7 +14,7 @@ from emla_core.data import as_recording
 from emla_core.errors import InputError
 
 from . import offline
-from .checks import check_excitation, checked
+from .checks import check_excitation, checked, numerical_failures
 from .moments import RowMoments
 from .physical import physical
 from .regressors import HISTORY, instruments, rows
@@ -105,8 +105,13 @@ def identify(data=None, model=None, forgetting=1.0, *, memory_time=None, sample_
     recording = as_recording(data, sample_period=sample_period, voltage=voltage, current=current,
                              position=position, force=force)
     model, kinds, lam = checked(recording, model, forgetting, memory_time)
+    with numerical_failures(recording.source, f'the {model} model cannot be identified'):
+        return _identify(recording, model, kinds, lam, initial_covariance, points, progress or (lambda done: None))
+
+
+def _identify(recording, model, kinds, lam, initial_covariance, points, report):
+    """identify() on checked inputs."""
     source = recording.source or 'recording'
-    report = progress or (lambda fraction: None)
     n, ts = len(recording), recording.sample_period
     every = max(1, (n - HISTORY) // points)
     trajectories = {}  # kind -> [Statistics after rows [0, end) for each end]

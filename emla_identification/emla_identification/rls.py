@@ -40,6 +40,8 @@ import math
 import numba
 import numpy as np
 
+MIN_MEMORY = 2.0   # samples: the shortest memory 1 / (1 - lambda) a forgetting factor may have
+
 
 @numba.njit(cache=True)
 def _rls_kernel(theta, P, stats, Phi, Y, Zeta, instrumented, lam, limit, adapt, errors):
@@ -90,11 +92,15 @@ def _rls_kernel(theta, P, stats, Phi, Y, Zeta, instrumented, lam, limit, adapt, 
 
 
 def forgetting_factor(forgetting=1.0, memory_time=None, sample_period=None):
-    """lambda from a forgetting factor in (0, 1], or from a memory time constant: lambda = 1 - Ts / tau."""
+    """lambda from a forgetting factor, or from a memory time constant tau: lambda = 1 - Ts / tau.
+
+    The memory 1 / (1 - lambda) must be at least MIN_MEMORY samples (lambda >= 0.5): with less, the weights
+    lambda^k underflow within a few hundred samples and the information matrix is as good as singular."""
     if memory_time is None:
         lam = float(forgetting)
-        if not 0.0 < lam <= 1.0:
-            raise ValueError(f'forgetting factor must be in (0, 1], got {forgetting!r}')
+        if not 1.0 - 1.0 / MIN_MEMORY <= lam <= 1.0:
+            raise ValueError(f'forgetting factor must be in [{1.0 - 1.0 / MIN_MEMORY:g}, 1] (a memory '
+                             f'1/(1 - lambda) of at least {MIN_MEMORY:g} samples), got {forgetting!r}')
         return lam
     if forgetting != 1.0:
         raise ValueError('give either a forgetting factor or a memory time, not both')
@@ -104,8 +110,9 @@ def forgetting_factor(forgetting=1.0, memory_time=None, sample_period=None):
     ts = float(sample_period)
     if not 0.0 < ts < math.inf:
         raise ValueError(f'sample period must be positive and finite, got {sample_period!r}')
-    if not tau > ts:
-        raise ValueError(f'memory time must exceed the sample period {ts} s, got {memory_time!r}')
+    if not tau >= MIN_MEMORY * ts:
+        raise ValueError(f'memory time must be at least {MIN_MEMORY:g} sample periods ({MIN_MEMORY * ts:g} s), '
+                         f'got {memory_time!r}')
     return 1.0 - ts / tau
 
 

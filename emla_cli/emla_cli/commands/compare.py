@@ -6,7 +6,7 @@ from pathlib import Path
 
 from emla_core.errors import InputError
 
-from .inputs import DATA_HELP, add_data_arguments, load_data, understood, warn
+from .inputs import DATA_HELP, add_data_arguments, load_data, understood, unknown_figures, warn
 from .output import add_force_argument, check_outputs, emit_json
 
 HELP = 'Compare a model file (or two) with measured data: each subsystem predicted from its measured inputs.'
@@ -45,6 +45,7 @@ def add_arguments(parser):
 def run(args):
     from emla_core.bag.report import read_warnings
     from emla_core.model_file import read
+    from emla_identification.checks import check_magnitudes, numerical_failures
     from emla_identification.discrepancy.predict import predict
     from emla_identification.model import model_on_data
 
@@ -53,9 +54,11 @@ def run(args):
     check_outputs({'--json': args.json, '--plot': args.plot}, [args.data, *args.model_file], args.force)
     with read_warnings() as lost:  # a bag's skipped chunks and the data they cost, for the JSON too
         recording = load_data(args)
+    check_magnitudes(recording)
     predictions = {}
-    for path in args.model_file:
-        predictions[path] = predict(model_on_data(read(path), recording, path))
+    with numerical_failures(recording.source, 'the models cannot be predicted'):
+        for path in args.model_file:
+            predictions[path] = predict(model_on_data(read(path), recording, path))
     result = {'models': list(predictions),
               'fit_percent': {m: {s: round(100.0 * (1.0 - p.nrmse), 4) for s, p in pred.items()}
                               for m, pred in predictions.items()},
@@ -63,10 +66,10 @@ def run(args):
               'horizon': {s: {'samples': p.horizon, 'seconds': p.horizon * recording.sample_period}
                           for s, p in next(iter(predictions.values())).items()},
               **understood(recording, 'compare')}
-    result['warnings'] = lost + warn(_warnings(args.model_file, predictions, recording), 'compare')
     if len(predictions) == 1:   # one model: its figures directly, as the contract's single-model form
         (only,) = predictions
         result['fit_percent'], result['nrmse'] = result['fit_percent'][only], result['nrmse'][only]
+    result['warnings'] = lost + warn(_warnings(args.model_file, recording) + unknown_figures(result), 'compare')
     emit_json(result, args.json, [(args.plot, lambda temporary: plot(predictions, recording, temporary))])
     for model, pred in predictions.items():
         fits = ', '.join(f'{s} {_percent(p.nrmse)}' for s, p in pred.items())
@@ -74,17 +77,13 @@ def run(args):
     return 0
 
 
-def _warnings(paths, predictions, recording):
-    """The data's implausible magnitudes against each model (once each), and the figures that cannot be
-    computed."""
+def _warnings(paths, recording):
+    """The data's implausible magnitudes against each model, each warning once."""
     from emla_core.model_file import read
     from emla_identification.plausibility import plausibility_warnings
 
-    found = [w for path in paths for w in plausibility_warnings(read(path).values(), {}, recording, identified=False)]
-    found += [f'{Path(model).name}: the {signal} fit cannot be computed (the measured {signal} does not vary, or '
-              f'the prediction diverges); null in the JSON'
-              for model, pred in predictions.items() for signal, p in pred.items() if not math.isfinite(p.nrmse)]
-    return list(dict.fromkeys(found))
+    return list(dict.fromkeys(w for path in paths
+                              for w in plausibility_warnings(read(path).values(), {}, recording, identified=False)))
 
 
 def _percent(nrmse):

@@ -5,7 +5,7 @@ from pathlib import Path
 
 from emla_core.errors import InputError
 
-from .inputs import DATA_HELP, add_data_arguments, load_data, understood, warn
+from .inputs import DATA_HELP, add_data_arguments, load_data, understood, unknown_figures, warn
 from .output import REPORT, add_force_argument, check_outputs, emit_json, json_text
 
 HELP = 'Find what the model is missing: name the effect, add it, show the gap shrink.'
@@ -61,7 +61,7 @@ def run(args):
         recording = load_data(args)
     diagnosis = diagnose(recording, names)
     result = {**diagnosis.to_dict(), **understood(recording, 'discrepancy')}
-    result['warnings'] = lost + warn(diagnosis.warnings, 'discrepancy')
+    result['warnings'] = lost + warn(diagnosis.warnings + unknown_figures(result), 'discrepancy')
     files = []
     if args.report:
         files.append((args.report, lambda temporary: _write_report(diagnosis, temporary, json_text(result))))

@@ -25,7 +25,7 @@ from emla_core.bag.report import read_warnings
 from emla_core.errors import InputError
 from emla_identification.plausibility import plausibility_warnings
 
-from .inputs import DATA_HELP, add_data_arguments, foreign, load_data, understood, warn
+from .inputs import DATA_HELP, add_data_arguments, foreign, load_data, understood, unknown_figures, warn
 from .numbers import add_number
 from .output import add_force_argument, check_outputs, emit_json
 
@@ -104,10 +104,10 @@ def run(args):
         else:
             recording, parts = _record(args)
             result, plot, identified = _greybox(recording, parts, model, _memory(args, forgetting, recording), args)
-    if model != 'arx':
-        result['warnings'] = warn(plausibility_warnings(result['parameters'], result['std'], recording), 'identify')
-    if lost:
-        result['warnings'] = lost + result.get('warnings', [])
+    found = [] if model == 'arx' else plausibility_warnings(result['parameters'], result['std'], recording)
+    found += unknown_figures(result)
+    if model != 'arx' or found or lost:   # (an ARX result has warnings only when there are some)
+        result['warnings'] = lost + warn(found, 'identify')
     result.update(understood(recording, 'identify'))
     files = []
     if args.model_out:

@@ -1,4 +1,6 @@
 """What the commands that read data share: the data flags, loading with them, and what was understood."""
+import math
+import numbers
 import sys
 
 from .numbers import add_number
@@ -62,6 +64,25 @@ def understood(recording, command):
     if 'linearly' in sampling.get('how', ''):
         print(f'emla {command}: note: {sampling["how"]}', file=sys.stderr)
     return {'inputs': recording.inputs, 'sampling': sampling}
+
+
+def unknown_figures(result, path=''):
+    """A message for each figure of `result` (dicts and lists at any depth) that is not a finite number, which
+    the JSON gives as null: it cannot be computed from these data."""
+    if isinstance(result, dict):
+        return [m for key, value in result.items() if key != 'warnings'
+                for m in unknown_figures(value, _member(path, key))]
+    if isinstance(result, (list, tuple)):
+        return [m for j, value in enumerate(result) for m in unknown_figures(value, f'{path}[{j}]')]
+    if isinstance(result, numbers.Real) and not math.isfinite(result):
+        return [f'{path} cannot be computed from these data (null in the JSON)']
+    return []
+
+
+def _member(path, key):
+    """path.key, or path["key"] for a key that is not a plain name (a file path)."""
+    key = str(key)
+    return (f'{path}.{key}' if path else key) if key.isidentifier() else f'{path}[{key!r}]'
 
 
 def warn(messages, command):

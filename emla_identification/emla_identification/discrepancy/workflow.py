@@ -42,6 +42,7 @@ from scipy.ndimage import uniform_filter1d
 from emla_core.data import as_recording
 from emla_core.errors import InputError
 
+from ..checks import check_magnitudes, numerical_failures
 from ..plausibility import plausibility_warnings
 from .adequacy import EQUATION, assess_adequacy
 from .candidates import library
@@ -226,9 +227,8 @@ def diagnose(data=None, names=None, *, sample_period=None, voltage=None, current
     missing effects, add them and show the gap shrink, or say where an unexplained disagreement lies.
 
     The nominal model is identified and its held-out residuals compared with the sensor-noise floor. If it
-    does not fit to that floor, each candidate effect (coulomb_friction, return_spring (magnetic_stiffness
-    when negative), resistance_drift, inductance_saturation, force_constant_variation, sensor_delay,
-    drive_voltage_error, and any added with `register_candidate`) is judged by the share of the held-out
+    does not fit to that floor, each candidate effect (those of the physics layer, emla_core.physics, and any
+    added with `register_candidate`) is judged by the share of the held-out
     prediction error it removes; the best one is named when that is significant and removes most of the
     disagreement, added, and the search repeats (up to four effects).
 
@@ -265,8 +265,9 @@ def diagnose(data=None, names=None, *, sample_period=None, voltage=None, current
     recording = as_recording(data, sample_period=sample_period, voltage=voltage, current=current, position=position,
                              force=force)
     data = Data.from_recording(recording)
-    with np.errstate(all='ignore'):   # degenerate data show up as non-finite or unphysical estimates
-        nominal = fit(data)
+    check_magnitudes(recording)
+    with numerical_failures(data.source, 'the model cannot be diagnosed'):   # degenerate data show up as
+        nominal = fit(data)                                                   # non-finite or unphysical estimates
         warnings = plausibility_warnings(_physical_only(nominal.parameters), nominal.std, recording)
         if not physical(nominal.parameters):
             found = ', '.join(f'{k} = {v:.4g}' for k, v in nominal.parameters.items())
