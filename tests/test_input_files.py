@@ -9,12 +9,12 @@ import tracemalloc
 import numpy as np
 import pytest
 import scipy.io
+from ros_isolation import VENV_BIN
 
 from emla_core import tables
 from emla_core.data import load
 from emla_core.errors import InputError
 from emla_core.tables import read_csv_columns
-from ros_isolation import VENV_BIN
 
 pytestmark = pytest.mark.timeout(300)
 NAMES = ('t', 'voltage', 'current', 'position')
@@ -178,9 +178,10 @@ def test_a_matlab_v73_file_reads_only_the_datasets_used(tmp_path, monkeypatch):
     h5py = pytest.importorskip('h5py')
     path = tmp_path / 'scope73.mat'
     k = np.arange(300)
+    variables = {'junk': np.zeros((300, 300)), 'spare': np.zeros((1, 1000)), 'time': k[None] * 1e-4,
+                 'voltage': np.sin(k)[None], 'current': np.cos(k)[None], 'position': k[None] * 1e-6}
     with h5py.File(path, 'w', userblock_size=512) as f:
-        for name, values in {'junk': np.zeros((300, 300)), 'spare': np.zeros((1, 1000)), 'time': k[None] * 1e-4,
-                             'voltage': np.sin(k)[None], 'current': np.cos(k)[None], 'position': k[None] * 1e-6}.items():
+        for name, values in variables.items():
             f[name] = values
     read = []
     original = h5py.Dataset.__getitem__
