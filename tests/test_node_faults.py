@@ -146,7 +146,7 @@ def test_the_controller_holds_its_voltage_over_a_period_without_a_usable_state(t
         return len(received[commands]) == periods + 1 and reported_all(received, 'controller', KINDS)
 
     received, _ = run_node(tmp_path, 'controller', frames, {commands: SampleFrame}, all_commanded, adaptive=False)
-    voltage = {topics.stamp_to_ns(msg.header.stamp): messages.frame_data(msg)[0] for msg in received[commands]}
+    voltage = {topics.stamp_to_ns(msg.header.stamp): msg.data[0] for msg in received[commands]}
     # a command for each period, the one after each state (its computational delay) and the first two from the
     # state at t = 0; none for the one after the state whose frame was lost (the set never completed)
     assert sorted(voltage) == [k * MS for k in range(periods + 2) if k != 22]

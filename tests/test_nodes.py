@@ -14,7 +14,7 @@ from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 
 from emla_control.nodes.controller_node import ControllerNode
-from emla_core import messages, topics
+from emla_core import topics
 from emla_core.nodes import common
 from emla_identification.nodes.identifier_node import IdentifierNode
 from emla_msgs.msg import ParameterEstimate, SampleFrame
@@ -59,7 +59,7 @@ class Listener:
         self.frames = {topic: [] for topic in VOLTAGE_TOPICS + STATE_TOPICS}
         self.estimates, self.diagnostics, self.done = [], [], []
         self.subscriptions = [node.create_subscription(SampleFrame, topic, lambda msg, frames=frames: frames.append(
-            (topics.stamp_to_ns(msg.header.stamp), msg.sample_period, messages.frame_data(msg).copy())), common.FRAME_QOS)
+            (topics.stamp_to_ns(msg.header.stamp), msg.sample_period, np.array(msg.data))), common.FRAME_QOS)
             for topic, frames in self.frames.items()]
         self.subscriptions += [
             node.create_subscription(ParameterEstimate, topics.PARAMETERS_TOPIC, self.estimates.append, 10),

@@ -47,11 +47,6 @@ def frame_message(stamp, sample_period, data, frame_id=''):
     return msg
 
 
-def frame_data(msg):
-    """The samples of a SampleFrame as a read-only float64 array over the message's buffer."""
-    return np.frombuffer(msg.data, dtype=np.float64)
-
-
 # Serialised messages (CDR, XCDR1) built and read without rclpy message objects: a node publishes the bytes (a
 # publisher takes them) and subscribes raw, for a few us per message where building or converting an rclpy
 # message costs some 15 us. The bytes are rclpy's but for the padding, zeros here. After the encapsulation

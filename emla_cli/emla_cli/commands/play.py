@@ -66,12 +66,12 @@ def _open(args):
     return played, first[2], itertools.chain([first], messages)
 
 
-def _frame_end(bag, topic, msgtype, stamp, raw):
+def _frame_end(bag, topic, stamp, raw):
     """The end of a SampleFrame's samples (stamp + n * period), in ns; an InputError if the frame is malformed."""
-    from emla_core.bag.reader import check_period, deserialize
-    msg = deserialize(bag, topic, msgtype, stamp, raw)
-    check_period(bag, msg.sample_period)
-    return stamp + round(len(msg.data) * msg.sample_period * 1e9)
+    from emla_core.bag.reader import check_period, read_frame
+    _, period, samples = read_frame(bag, topic, stamp, raw)
+    check_period(bag, period)
+    return stamp + round(len(samples) * period * 1e9)
 
 
 def _data_end(bag, last_frames):
@@ -158,7 +158,7 @@ def run(args):
                 clock.publish(Clock(clock=messages.time_msg(now)))
             publishers[topic].publish(raw)
             if msgtype == SAMPLE_FRAME:
-                last_frames[topic] = (msgtype, stamp, raw)
+                last_frames[topic] = (stamp, raw)
             count += 1
         end = _data_end(args.bag, last_frames)
         if end is not None:

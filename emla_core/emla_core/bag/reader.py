@@ -33,7 +33,7 @@ from zstandard import ZstdError
 
 from emla_core.errors import InputError
 from emla_core.files import regular_file
-from emla_core.messages import estimate_std, estimate_values, frame_data
+from emla_core.messages import estimate_std, estimate_values, read_frame_cdr
 from emla_core.recording import Recording
 from emla_core.topics import (NAMESPACE, PARAMETER_ESTIMATE, PARAMETERS_TOPIC, SAMPLE_FRAME, TRUE_PARAMETERS_TOPIC,
                               stamp_to_ns)
@@ -382,8 +382,21 @@ def deserialize(path, topic, msgtype, stamp, data):
     try:
         return typestore().deserialize_cdr(data, msgtype)
     except (SerdeError, KeyError) as exc:
-        raise InputError(f'{path}: unreadable {msgtype} on {topic} (logged at {stamp * 1e-9:.6f} s): '
-                         f'{one_line(exc)}') from None
+        raise _unreadable_message(path, topic, msgtype, stamp, exc) from None
+
+
+def read_frame(path, topic, stamp, data):
+    """(stamp ns, sample period s, samples) of the SampleFrame of CDR `data` logged on `topic` of the bag
+    `path` at `stamp` (ns), decoded as the nodes decode them (messages.read_frame_cdr); an InputError naming
+    them if it is not one."""
+    try:
+        return read_frame_cdr(data)
+    except (struct.error, ValueError, IndexError) as exc:
+        raise _unreadable_message(path, topic, SAMPLE_FRAME, stamp, exc) from None
+
+
+def _unreadable_message(path, topic, msgtype, stamp, exc):
+    return InputError(f'{path}: unreadable {msgtype} on {topic} (logged at {stamp * 1e-9:.6f} s): {one_line(exc)}')
 
 
 def read_bag(path):
@@ -392,11 +405,11 @@ def read_bag(path):
     _, custom = bag_files(path)
     frames, estimates, truth, skipped = {}, [], [], []
     with reporting_skipped(skipped):
-        for topic, msgtype, stamp, msg in iter_messages(path, on_corrupt=skipped.append):
+        for topic, msgtype, stamp, data in iter_serialized(path, on_corrupt=skipped.append):
             if msgtype == SAMPLE_FRAME and topic.startswith(NAMESPACE):
-                frames.setdefault(topic[len(NAMESPACE):], []).append(
-                    (stamp_to_ns(msg.header.stamp), msg.sample_period, frame_data(msg)))
+                frames.setdefault(topic[len(NAMESPACE):], []).append(read_frame(path, topic, stamp, data))
             elif msgtype == PARAMETER_ESTIMATE and topic in (PARAMETERS_TOPIC, TRUE_PARAMETERS_TOPIC):
+                msg = deserialize(path, topic, msgtype, stamp, data)
                 stamp_s = stamp_to_ns(msg.header.stamp) * 1e-9
                 values = _finite(estimate_values(msg))
                 if topic == TRUE_PARAMETERS_TOPIC:
