@@ -43,7 +43,7 @@ NUMERIC = [
     (['echo', '/emla/parameters'], '--truncate-length', ['-1', 'inf', 'all']),
     (['play', BAG], '--rate', ['nan', 'inf', '-1', '1e-9', '0.001', '1e9']),
     (['play', BAG], '--wait', ['nan', 'inf', '-1', '1e9']),
-    (['simulate', '--bag', 'new'], '--duration', ['nan', 'inf', '0', '-1', '1e9', '601']),
+    (['simulate', '--bag', 'new'], '--duration', ['nan', 'inf', '0', '-1', '0.005', '1e-320', '1e9', '601']),
     (['launch', '--bag', 'new'], '--duration', ['nan', 'inf', '0', '-1', '1e9', '3601']),
     (['identify', CSV], '--forgetting', ['nan', 'inf', '1e-300', '0', '0.4', '1.5', '-1']),
     (['identify', CSV], '--memory-time', ['nan', 'inf', '0', '-1', '1e9']),

@@ -1,12 +1,15 @@
 """The arguments `emla simulate` and `emla launch` share: which scenario, how long, which actuator."""
+from emla_core.topics import ESTIMATE_PERIOD
+
 from .numbers import add_number
 
 
 def add_arguments(parser, max_duration):
-    """The scenario, --duration (up to `max_duration` s) and --model-file."""
+    """The scenario, --duration (from one estimate period, the first estimate, up to `max_duration` s) and
+    --model-file."""
     parser.add_argument('scenario', nargs='?', default='default', help='scenario name (default: default; see above)')
-    add_number(parser, '--duration', low=0, high=max_duration, open_low=True, unit='s', metavar='S',
-               help=f"simulated time, s, up to {max_duration:g} (default: the scenario's, above)")
+    add_number(parser, '--duration', low=ESTIMATE_PERIOD, high=max_duration, unit='s', metavar='S',
+               help=f"simulated time, s, {ESTIMATE_PERIOD:g} to {max_duration:g} (default: the scenario's, above)")
     parser.add_argument('--model-file', metavar='M.yaml',
                         help='run the actuator of this model file (its parameters and effects) instead')
 
