@@ -14,9 +14,8 @@ import numpy as np
 from emla_core.errors import InputError
 from emla_core.recording import Recording
 from emla_core.sampling import steady_period
-from emla_core.units import SIGNAL_UNITS, parse_assignments, parse_unit, split_header
+from emla_core.units import SIGNAL_NAMES, SIGNAL_UNITS, parse_assignments, parse_unit, split_header
 
-SIGNAL_NAMES = ('voltage', 'current', 'position', 'velocity', 'force')
 # Column names (without their unit) taken for a signal when no --columns says otherwise; case is ignored.
 ALIASES = {'t': ('t', 'time'), 'voltage': ('voltage', 'u'), 'current': ('current', 'i'),
            'position': ('position', 'x'), 'velocity': ('velocity', 'v'), 'force': ('force', 'f')}

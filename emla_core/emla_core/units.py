@@ -11,6 +11,7 @@ from emla_core.errors import InputError
 
 # The signals the suite knows, with their SI unit and quantity.
 SIGNAL_UNITS = {'t': 's', 'voltage': 'V', 'current': 'A', 'position': 'm', 'velocity': 'm/s', 'force': 'N'}
+SIGNAL_NAMES = tuple(name for name in SIGNAL_UNITS if name != 't')  # the signals a recording may hold
 QUANTITIES = {'t': 'time', 'voltage': 'voltage', 'current': 'current', 'position': 'position',
               'velocity': 'velocity', 'force': 'force'}
 # Unit names per quantity -> factor to SI. Positions and velocities may be angles (a DC motor's shaft).

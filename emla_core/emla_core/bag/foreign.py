@@ -18,13 +18,12 @@ from pathlib import Path
 
 import numpy as np
 
-from emla_core.data import SIGNAL_NAMES
 from emla_core.errors import InputError
 from emla_core.files import regular_file
 from emla_core.recording import Recording
 from emla_core.sampling import align
 from emla_core.topics import NAMESPACE, SAMPLE_FRAME, SIGNALS, stamp_to_ns
-from emla_core.units import parse_assignments, parse_unit
+from emla_core.units import SIGNAL_NAMES, parse_assignments, parse_unit
 
 from .schema import typestore
 
