@@ -13,7 +13,7 @@ from emla_cli.cli import main
 from emla_core.data import load
 from emla_core.errors import InputError
 from emla_identification.discrepancy import diagnose
-from emla_identification.greybox import identify
+from emla_identification.greybox import identify, parameter_scales, unit_scales
 from emla_identification.plausibility import plausibility_warnings, unit_flag
 from emla_identification.rls import RecursiveLeastSquares, forgetting_factor
 from emla_sim.datasets import closed_loop, force_driven
@@ -156,6 +156,30 @@ def test_a_forgetting_factor_without_memory_is_one_line(clean, tmp_path, capsys)
     with pytest.raises(ValueError, match='memory 1/.1 - lambda. of at least 2 samples'):
         RecursiveLeastSquares(3, forgetting=0.3)
     assert forgetting_factor(0.5) == 0.5
+
+
+@pytest.mark.parametrize('scales', [{'voltage': 1e-25, 'current': 1e-25, 'position': 1e-25}, {'position': 1e20},
+                                    {'current': 1e-12}, {'t': 1e5}, {'voltage': 1e25, 't': 1e-5}])
+def test_extreme_but_finite_data_are_identified_in_rescaled_units(clean, scales):
+    """The regressions' prior and sums of squares are made for SI magnitudes; far from them the record is
+    identified in rescaled units and the parameters scaled back by their dimensions."""
+    t, voltage, current, position = clean
+    base = identify(sample_period=1e-4, voltage=voltage, current=current, position=position)
+    assert set(unit_scales(load_signals(clean)).values()) == {1.0}     # SI data: identified as they are
+    s = dict.fromkeys(('t', 'voltage', 'current', 'position'), 1.0) | scales
+    result = identify(sample_period=1e-4 * s['t'], voltage=voltage * s['voltage'], current=current * s['current'],
+                      position=position * s['position'])
+    factor = parameter_scales(list(base.parameters), s)
+    for got, want, rtol in ((result.parameters, base.parameters, 1e-6), (result.std, base.std, 1e-2)):
+        np.testing.assert_allclose(np.array(list(got.values())) / factor, list(want.values()), rtol=rtol)
+    assert result.sample_period == 1e-4 * s['t'] and result.trajectory.time[-1] == pytest.approx(
+        base.trajectory.time[-1] * s['t'])
+
+
+def load_signals(signals):
+    """A Recording of (t, voltage, current, position)."""
+    from emla_core.recording import Recording
+    return Recording(1e-4, dict(zip(('voltage', 'current', 'position'), signals[1:])))
 
 
 @pytest.mark.parametrize('index, factor, named', [(0, 1e-90, 'sample period'), (0, 1e90, 'sample period'),

@@ -5,8 +5,14 @@ Each regression of regressors.py is solved by exponentially weighted least squar
 electrical one by instrumental variables (offline.py; streams: rls.py, see online.py and streaming.py); the
 physical parameters follow from the solutions (physical.py) with uncertainties from a sensor-noise model
 (noise.py). On the test data the reported values match the scatter over noise realisations to within some 50 %.
+
+The regressions are made for SI magnitudes: their prior (P0 = 1e6 I) must be negligible beside the data's
+information, and their sums of squares must neither over- nor underflow. A record whose sample period or
+signal peaks lie more than RESCALE_BEYOND from typical ones (TYPICAL) is identified in rescaled units, by
+powers of two (exact), and its parameters are scaled back by their dimensions.
 """
-from dataclasses import dataclass, field
+import math
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -18,6 +24,9 @@ from .checks import check_excitation, checked, numerical_failures
 from .moments import RowMoments
 from .physical import physical
 from .regressors import HISTORY, instruments, rows
+
+TYPICAL = {'t': 1e-4, 'voltage': 10.0, 'current': 1.0, 'position': 1e-3, 'force': 1.0}  # s, V, A, m, N
+RESCALE_BEYOND = 2.0 ** 16
 
 
 @dataclass
@@ -105,8 +114,59 @@ def identify(data=None, model=None, forgetting=1.0, *, memory_time=None, sample_
     recording = as_recording(data, sample_period=sample_period, voltage=voltage, current=current,
                              position=position, force=force)
     model, kinds, lam = checked(recording, model, forgetting, memory_time)
+    scales = unit_scales(recording)
     with numerical_failures(recording.source, f'the {model} model cannot be identified'):
-        return _identify(recording, model, kinds, lam, initial_covariance, points, progress or (lambda done: None))
+        result = _identify(_scaled(recording, scales), model, kinds, lam, initial_covariance, points,
+                           progress or (lambda done: None))
+    return _unscaled(result, scales)
+
+
+def unit_scales(recording):
+    """{'t' or signal: the power of two its values are divided by for the regressions}: 1 within RESCALE_BEYOND
+    of TYPICAL, else the power of two nearest to the peak (sample period) over the typical one."""
+    def scale(size, typical):
+        ratio = size / typical
+        return 1.0 if not ratio or 1 / RESCALE_BEYOND <= ratio <= RESCALE_BEYOND else 2.0 ** round(math.log2(ratio))
+    scales = {'t': scale(recording.sample_period, TYPICAL['t'])}
+    for name, values in recording.signals.items():
+        if name in TYPICAL:
+            values = np.abs(np.asarray(values, dtype=float))
+            scales[name] = scale(float(np.max(values[np.isfinite(values)], initial=0.0)), TYPICAL[name])
+    return scales
+
+
+def parameter_scales(names, scales):
+    """The factor each parameter of `names` takes from the signals' `scales` (by its dimension: R in V/A, Km in
+    V s/m, m in N s^2/m with N = V A s/m unless a force is measured, ...)."""
+    u, i, x, t = (scales.get(k, 1.0) for k in ('voltage', 'current', 'position', 't'))
+    force = scales['force'] if 'force' in scales else u * i * t / x
+    factors = {'resistance': u / i, 'inductance': u * t / i, 'emf_constant': u * t / x, 'mass': force * t * t / x,
+               'damping': force * t / x, 'load_force': force}
+    return np.array([factors[name] for name in names])
+
+
+def _scaled(recording, scales):
+    """The recording in the units of `scales` (itself when they are all 1)."""
+    if all(s == 1.0 for s in scales.values()):
+        return recording
+    return replace(recording, sample_period=recording.sample_period / scales['t'],
+                   start_time=recording.start_time / scales['t'],
+                   signals={k: np.asarray(v) / scales.get(k, 1.0) for k, v in recording.signals.items()})
+
+
+def _unscaled(result, scales):
+    """A GreyBoxResult of a _scaled recording in SI units again."""
+    if all(s == 1.0 for s in scales.values()):
+        return result
+    names, t = list(result.parameters), scales['t']
+    factor = parameter_scales(names, scales)
+    trajectory = result.trajectory
+    return replace(result, parameters={k: v * f for (k, v), f in zip(result.parameters.items(), factor)},
+                   std={k: result.std[k] * f for k, f in zip(names, factor)},
+                   covariance=result.covariance * np.outer(factor, factor), sample_period=result.sample_period * t,
+                   trajectory=replace(trajectory, time=trajectory.time * t,
+                                      parameters={k: trajectory.parameters[k] * f for k, f in zip(names, factor)},
+                                      std={k: trajectory.std[k] * f for k, f in zip(names, factor)}))
 
 
 def _identify(recording, model, kinds, lam, initial_covariance, points, report):

@@ -27,7 +27,8 @@ MAX_VOLTAGE = 1e3           # V
 MAX_POWER = 1e4             # W: peak voltage times peak current of a coil of these actuators
 SPLIT_RESISTANCE = 1.0      # ohm: U/I of an over-powered record below this means a current slip, above a voltage one
 MAX_RESISTIVE_RATIO = 5.0   # R I_peak / U_peak: the coil's resistance alone needs more voltage than was applied
-MIN_MASS = 1e-5             # kg: below this beside a force constant of N/A, the position is not in metres
+MIN_MASS = 1e-5             # kg: below this beside a force constant under MIN_FORCE_CONSTANT, the position
+MIN_FORCE_CONSTANT = 0.1    # N/A      is not in metres (m and Km fall as c^2 and c with a position c times large)
 MAX_MASS = 1e4              # kg: above this the time is not in seconds
 PEAK_PERCENTILE = 99.9      # of |signal|, taken as its peak: one glitch does not count
 
@@ -60,7 +61,8 @@ class Magnitudes:
             values = None if values is None else values[np.isfinite(values)]
             return float(np.percentile(values, PEAK_PERCENTILE)) if values is not None and values.size else None
         position = recording.signals.get('position')
-        stroke = float(np.ptp(position[np.isfinite(position)])) if position is not None and len(position) else None
+        position = None if position is None else np.asarray(position, dtype=float)
+        stroke = float(np.ptp(position[np.isfinite(position)])) if position is not None and position.size else None
         return cls(recording.sample_period, peak('voltage'), peak('current'), stroke)
 
     @property
@@ -116,12 +118,19 @@ def unit_flag(inputs, name, factor):
 
 def _slip(signal, what, inputs, factor, shown, names):
     """'WHAT (hence the parameters `names` of `shown`): is the SIGNAL in UNIT? give its unit with --units
-    SIGNAL=UNIT'."""
-    flag = unit_flag(inputs, signal, factor)
-    listed = ', '.join(f'{n} {shown[n]:.3g} {UNITS[n]}' for n in names if n in shown)
+    SIGNAL=UNIT'; factor None: no usual unit fits, the SIGNAL is not in SI."""
+    listed = ', '.join(f'{n} {shown[n]:.3g} {UNITS[n]}' for n in names if np.isfinite(shown.get(n, np.nan)))
     consequence = f' (hence {listed})' if listed else ''
     name = 'time' if signal == 't' else signal
+    if factor is None:
+        return f'{what}{consequence}: the {name} is not in {SI_UNITS[signal]}; give its unit with --units {signal}=UNIT'
+    flag = unit_flag(inputs, signal, factor)
     return f'{what}{consequence}: is the {name} in {flag.split("=")[-1]}? give its unit with {flag}'
+
+
+def _usual_factor(size, limit):
+    """The usual unit's factor (milli, then micro) that brings `size` within `limit`, or None."""
+    return next((f for f in PREFIXES if size * f <= limit), None)
 
 
 def _signs(parameters, std, signals, inputs):
@@ -196,11 +205,12 @@ def _position(parameters, magnitudes, inputs, shown):
     """A position in mm or um read as m: a stroke of metres, or micrograms moved by newtons per amp."""
     stroke, mass = magnitudes.stroke, parameters.get('mass', 1.0)
     if stroke is not None and stroke > MAX_STROKE:
-        factor, names = (1e-3 if stroke * 1e-3 <= MAX_STROKE else 1e-6), ('emf_constant', 'mass')
+        factor, names = _usual_factor(stroke, MAX_STROKE), ('emf_constant', 'mass')
         what = f'the position spans {stroke:.3g} m, a stroke of metres'
-    elif 0 < mass < MIN_MASS:
-        factor, names = 1e-3, ('emf_constant',)
-        what = f'the mass {mass:.3g} kg is implausibly small'
+    elif 0 < mass < MIN_MASS and abs(parameters.get('emf_constant', 0.0)) < MIN_FORCE_CONSTANT:
+        factor, names = 1e-3, ()
+        what = f'the mass {mass:.3g} kg' + (f' and the force constant {parameters["emf_constant"]:.3g} N/A are'
+                                            if 'emf_constant' in parameters else ' is') + ' implausibly small'
     else:
         return None
     return _slip('position', what, inputs, factor, shown, names)
@@ -210,7 +220,7 @@ def _time(parameters, magnitudes, inputs, shown):
     """A time in ms or us read as s: a slow sample period, or a mass of tonnes."""
     ts, mass = magnitudes.sample_period, parameters.get('mass', 0.0)
     if ts > MAX_SAMPLE_PERIOD:
-        factor, names = (1e-3 if ts * 1e-3 <= MAX_SAMPLE_PERIOD else 1e-6), ('mass',)
+        factor, names = _usual_factor(ts, MAX_SAMPLE_PERIOD), ('mass',)
         what = f'the sample period is {ts:.3g} s, slow for a coil'
     elif mass > MAX_MASS:
         factor, names = 1e-3, ()
