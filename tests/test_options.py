@@ -11,12 +11,12 @@ import time
 
 import pytest
 import yaml
+from independent_data import EXAMPLES
+from ros_isolation import REPO, VENV_BIN, processes
 
 from emla_cli import cli
 from emla_cli.launcher import SHM, remove_unused_shm, stale_shm_files
 from emla_core.nodes.params_file import matches, section_names
-from independent_data import EXAMPLES
-from ros_isolation import REPO, VENV_BIN, processes
 
 pytestmark = pytest.mark.timeout(120)
 EMLA = str(VENV_BIN / 'emla')
@@ -128,7 +128,8 @@ def test_the_packages_params_files_hold_only_declared_parameters(node):
 @pytest.mark.parametrize('text, message', [
     ('/emla/identifier:\n  ros__parameters: {forgeting: 0.99}\n',
      "unknown parameter 'forgeting' for /emla/identifier (did you mean 'forgetting'?); its parameters: effects"),
-    ('/**:\n  ros__parameters: {modle: arx}\n', "unknown parameter 'modle' for /emla/identifier (did you mean 'model'?)"),
+    ('/**:\n  ros__parameters: {modle: arx}\n',
+     "unknown parameter 'modle' for /emla/identifier (did you mean 'model'?)"),
     ('/emla/identifer:\n  ros__parameters: {forgetting: 0.99}\n',
      "section '/emla/identifer' is for no node of the suite (did you mean '/emla/identifier'?); nodes: "),
     ('/emla/identifier:\n  ros__parameters: {effects: ' + '[' * 50000 + ']' * 50000 + '}\n',

@@ -22,7 +22,7 @@ def read_params_files(args):
     arguments); InputError (one line) for one that is unreadable, not YAML or nested too deeply. Read before
     rclpy.init: rcl's parser takes minutes over a deeply nested file."""
     trees = {}
-    for path in (value for flag, value in zip(args, args[1:]) if flag == '--params-file'):
+    for path in (value for flag, value in zip(args, args[1:], strict=False) if flag == '--params-file'):
         try:
             trees[path] = yaml.safe_load(Path(path).read_text())
         except RecursionError:
