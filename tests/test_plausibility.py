@@ -135,6 +135,10 @@ def test_compare_checks_the_data_against_the_model(clean, tmp_path, capsys):
         path = plain_csv(tmp_path / 'slip.csv', changed(clean, (index,), factor))
         (warning,) = warned(capsys, 'compare', path, '--model-file', model)
         assert flag in warning, (slip, warning)
+    for flipped, (indices, flag) in FLIPS.items():   # the model's voltage balance on the data: a, b = -1
+        path = plain_csv(tmp_path / 'flipped.csv', changed(clean, indices, -1.0))
+        (warning,) = warned(capsys, 'compare', path, '--model-file', model)
+        assert flag in warning and warning.count('--units') == 1, (flipped, warning)
     # a current 30 times too large for its voltage and the model's R: no magnitude alone shows that
     magnitudes = {'resistance': TRUTH['resistance']}
     small = changed(clean, (2,), 30.0)

@@ -15,6 +15,10 @@ milliamps to tens of amps, its supply volts to hundreds, the power it draws at m
 millimetres to centimetres, its sample period well under 10 ms. And the current can never exceed what the
 voltage drives through the coil's resistance (R I_peak <= U_peak but for back-EMF), which catches a slip
 in data compared with a model of known R (emla compare).
+
+Data compared with a model (emla compare): the model's voltage balance on the measured signals, u = a (R I +
+L dI/dt) + b Km v fitted for a and b, gives a = b = 1 on consistent data, and the signs above for a flipped
+sensor: a = -1 for the current, b = -1 for the position, both for the voltage.
 """
 from dataclasses import dataclass
 
@@ -31,6 +35,7 @@ MIN_MASS = 1e-5             # kg: below this beside a force constant under MIN_F
 MIN_FORCE_CONSTANT = 0.1    # N/A      is not in metres (m and Km fall as c^2 and c with a position c times large)
 MAX_MASS = 1e4              # kg: above this the time is not in seconds
 PEAK_PERCENTILE = 99.9      # of |signal|, taken as its peak: one glitch does not count
+MIN_BALANCE = 0.25          # |a|, |b| of the voltage balance against a model from which their signs count
 
 SI_UNITS = {'t': 's', 'voltage': 'V', 'current': 'A', 'position': 'm', 'force': 'N'}
 PREFIXES = {1e-3: 'm', 1e-6: 'u'}
@@ -102,7 +107,8 @@ def plausibility_warnings(parameters, std, recording, identified=True):
     magnitudes = Magnitudes.of(recording)
     inputs = getattr(recording, 'inputs', None) or {}
     shown = parameters if identified else {}
-    found = [_signs(parameters, std, recording.signals, inputs)] if identified else []
+    found = [_signs(parameters, std, recording.signals, inputs) if identified else
+             _against_model(parameters, recording.signals, recording.sample_period, inputs)]
     found += [check(parameters, magnitudes, inputs, shown) for check in (_current, _voltage, _position, _time)]
     return [message for message in found if message]
 
@@ -161,6 +167,25 @@ def _signs(parameters, std, signals, inputs):
                 f'full tells which); flip it with ' + ' or '.join(unit_flag(inputs, s, -1) for s in matches))
     return (f'{listed} must be positive, and no single flipped signal gives these signs: the record probably '
             f'does not determine them (does it excite the actuator?)')
+
+
+def _against_model(parameters, signals, sample_period, inputs):
+    """The signal a model's voltage balance says runs the other way round in these data (module doc), or None."""
+    names = ('voltage', 'current', 'position')
+    if any(n not in parameters for n in ('resistance', 'inductance', 'emf_constant')) or \
+            any(n not in signals for n in names) or len(signals['position']) < 2:
+        return None
+    voltage, current, position = (np.asarray(signals[n], dtype=float) for n in names)
+    coil = parameters['resistance'] * current + parameters['inductance'] * np.gradient(current, sample_period)
+    emf = parameters['emf_constant'] * np.gradient(position, sample_period)
+    with np.errstate(all='ignore'):
+        (a, b), *_ = np.linalg.lstsq(np.column_stack((coil, emf)), voltage, rcond=None)
+    if not min(abs(a), abs(b)) >= MIN_BALANCE:
+        return None
+    signal = next((s for s, pattern in SIGN_PATTERNS.items() if pattern[:2] == (np.sign(a), np.sign(b))), None)
+    return None if signal is None else (
+        f'the measured voltage is {a:.2g} times the model\'s R I + L dI/dt and {b:.2g} times its back-EMF Km v: '
+        f'the {signal} runs the other way round ({SIGN_CAUSES[signal]}); flip it with {unit_flag(inputs, signal, -1)}')
 
 
 def _current(parameters, magnitudes, inputs, shown):
