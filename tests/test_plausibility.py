@@ -4,6 +4,7 @@ by `emla identify`, `emla discrepancy` and `emla compare`; a negated sensor gets
 only; clean data get no warning; extreme settings and data give one line, never a traceback, a NaN or an
 impossible figure."""
 import json
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -142,10 +143,19 @@ def test_compare_checks_the_data_against_the_model(clean, tmp_path, capsys):
     # a current 30 times too large for its voltage and the model's R: no magnitude alone shows that
     magnitudes = {'resistance': TRUTH['resistance']}
     small = changed(clean, (2,), 30.0)
-    slipped = type('Record', (), {'signals': dict(zip(('voltage', 'current', 'position'), small[1:])),
-                                  'sample_period': 1e-4})()
+    slipped = SimpleNamespace(signals=dict(zip(('voltage', 'current', 'position'), small[1:])), sample_period=1e-4)
     (warning,) = plausibility_warnings(magnitudes, {}, slipped, identified=False)
     assert 'R = 3.2 ohm needs' in warning and '--units current=mA' in warning
+
+
+def test_a_time_in_ms_of_a_fast_record_is_seen_against_the_coils_time_constant():
+    """100 kHz logged in ms: a sample period of 10 "s" is not slow enough to show, but the coil's L/R of
+    0.66 ms (a model's, in compare) is a fifteenth of it."""
+    fast = SimpleNamespace(signals={'position': np.array([0.0, 2e-3])}, sample_period=0.01)
+    coil = {k: TRUTH[k] for k in ('resistance', 'inductance')}
+    (warning,) = plausibility_warnings(coil, {}, fast, identified=False)
+    assert 'whose L/R is 0.000656 s' in warning and '--units t=ms' in warning
+    assert plausibility_warnings(coil, {}, SimpleNamespace(signals={}, sample_period=1e-4), identified=False) == []
 
 
 def test_a_forgetting_factor_without_memory_is_one_line(clean, tmp_path, capsys):

@@ -31,6 +31,7 @@ MAX_VOLTAGE = 1e3           # V
 MAX_POWER = 1e4             # W: peak voltage times peak current of a coil of these actuators
 SPLIT_RESISTANCE = 1.0      # ohm: U/I of an over-powered record below this means a current slip, above a voltage one
 MAX_RESISTIVE_RATIO = 5.0   # R I_peak / U_peak: the coil's resistance alone needs more voltage than was applied
+MIN_TIME_CONSTANT = 0.1     # L/R in sample periods below which the coil's current is not resolved at all
 MIN_MASS = 1e-5             # kg: below this beside a force constant under MIN_FORCE_CONSTANT, the position
 MIN_FORCE_CONSTANT = 0.1    # N/A      is not in metres (m and Km fall as c^2 and c with a position c times large)
 MAX_MASS = 1e4              # kg: above this the time is not in seconds
@@ -242,19 +243,19 @@ def _position(parameters, magnitudes, inputs, shown):
 
 
 def _time(parameters, magnitudes, inputs, shown):
-    """A time in ms or us read as s: a slow sample period, or a mass of tonnes."""
+    """A time in ms or us read as s: a slow sample period, one the coil's L/R is a small fraction of, or a mass
+    of tonnes."""
     ts, mass = magnitudes.sample_period, parameters.get('mass', 0.0)
-    if ts > MAX_SAMPLE_PERIOD:
-        factor, names = _usual_factor(ts, MAX_SAMPLE_PERIOD), ('mass',)
+    resistance, inductance = parameters.get('resistance', 0.0), parameters.get('inductance', 0.0)
+    tau = inductance / resistance if resistance > 0 and inductance > 0 else None
+    if ts > MAX_SAMPLE_PERIOD or (tau is not None and tau < MIN_TIME_CONSTANT * ts):
+        factor, names = _usual_factor(ts, min(MAX_SAMPLE_PERIOD, tau / MIN_TIME_CONSTANT if tau else np.inf)), ('mass',)
         what = f'the sample period is {ts:.3g} s, slow for a coil'
     elif mass > MAX_MASS:
         factor, names = 1e-3, ()
         what = f'the mass {mass:.3g} kg is implausibly large'
     else:
         return None
-    resistance, inductance = shown.get('resistance', 0.0), shown.get('inductance', 0.0)
-    if resistance > 0 and inductance > 0:   # the coil's time constant is stretched with the time axis
-        what += f', its L/R {inductance / resistance:.3g} s'
-    elif parameters.get('resistance', 0.0) > 0 and parameters.get('inductance', 0.0) > 0:
-        what += f', longer than the coil\'s L/R of {parameters["inductance"] / parameters["resistance"]:.3g} s'
+    if tau is not None:   # identified: stretched with the time axis; from a model: the coil's own
+        what += f', its L/R {tau:.3g} s' if shown else f' whose L/R is {tau:.3g} s'
     return _slip('t', what, inputs, factor, shown, names) + ' (or --sample-period in s)'
