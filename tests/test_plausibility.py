@@ -9,6 +9,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 import scipy.io
+from independent_data import TRUTH, simulate
+from independent_plant import record
 
 from emla_cli.cli import main
 from emla_core.data import load
@@ -18,10 +20,7 @@ from emla_identification.greybox import identify, parameter_scales, unit_scales
 from emla_identification.plausibility import plausibility_warnings, unit_flag
 from emla_identification.rls import RecursiveLeastSquares, forgetting_factor
 from emla_sim.datasets import closed_loop, force_driven
-from independent_data import TRUTH, simulate
-from independent_plant import record
 
-CORE = ('resistance', 'inductance', 'emf_constant', 'mass', 'damping')
 SLIPS = {   # signal: (index in (t, voltage, current, position), factor, the flag that fixes it)
     'current in mA': (2, 1e3, '--units current=mA'),
     'voltage in mV': (1, 1e3, '--units voltage=mV'),
@@ -141,10 +140,10 @@ def test_compare_checks_the_data_against_the_model(clean, tmp_path, capsys):
         (warning,) = warned(capsys, 'compare', path, '--model-file', model)
         assert flag in warning and warning.count('--units') == 1, (flipped, warning)
     # a current 30 times too large for its voltage and the model's R: no magnitude alone shows that
-    magnitudes = {'resistance': TRUTH['resistance']}
-    small = changed(clean, (2,), 30.0)
-    slipped = SimpleNamespace(signals=dict(zip(('voltage', 'current', 'position'), small[1:])), sample_period=1e-4)
-    (warning,) = plausibility_warnings(magnitudes, {}, slipped, identified=False)
+    t, voltage, current, position = changed(clean, (2,), 30.0)
+    slipped = SimpleNamespace(signals={'voltage': voltage, 'current': current, 'position': position},
+                              sample_period=1e-4)
+    (warning,) = plausibility_warnings({'resistance': TRUTH['resistance']}, {}, slipped, identified=False)
     assert 'R = 3.2 ohm needs' in warning and '--units current=mA' in warning
 
 
@@ -193,7 +192,7 @@ def test_extreme_but_finite_data_are_identified_in_rescaled_units(clean, scales)
 def load_signals(signals):
     """A Recording of (t, voltage, current, position)."""
     from emla_core.recording import Recording
-    return Recording(1e-4, dict(zip(('voltage', 'current', 'position'), signals[1:])))
+    return Recording(1e-4, dict(zip(('voltage', 'current', 'position'), signals[1:], strict=True)))
 
 
 @pytest.mark.parametrize('index, factor, named', [(0, 1e-90, 'sample period'), (0, 1e90, 'sample period'),

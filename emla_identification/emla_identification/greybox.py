@@ -158,15 +158,15 @@ def _unscaled(result, scales):
     """A GreyBoxResult of a _scaled recording in SI units again."""
     if all(s == 1.0 for s in scales.values()):
         return result
-    names, t = list(result.parameters), scales['t']
-    factor = parameter_scales(names, scales)
-    trajectory = result.trajectory
-    return replace(result, parameters={k: v * f for (k, v), f in zip(result.parameters.items(), factor)},
-                   std={k: result.std[k] * f for k, f in zip(names, factor)},
-                   covariance=result.covariance * np.outer(factor, factor), sample_period=result.sample_period * t,
-                   trajectory=replace(trajectory, time=trajectory.time * t,
-                                      parameters={k: trajectory.parameters[k] * f for k, f in zip(names, factor)},
-                                      std={k: trajectory.std[k] * f for k, f in zip(names, factor)}))
+    factor = dict(zip(result.parameters, parameter_scales(list(result.parameters), scales), strict=True))
+    vector, t, trajectory = np.array(list(factor.values())), scales['t'], result.trajectory
+
+    def unscaled(values):
+        return {k: v * factor[k] for k, v in values.items()}
+    return replace(result, parameters=unscaled(result.parameters), std=unscaled(result.std),
+                   covariance=result.covariance * np.outer(vector, vector), sample_period=result.sample_period * t,
+                   trajectory=replace(trajectory, time=trajectory.time * t, parameters=unscaled(trajectory.parameters),
+                                      std=unscaled(trajectory.std)))
 
 
 def _identify(recording, model, kinds, lam, initial_covariance, points, report):

@@ -32,8 +32,8 @@ MAX_POWER = 1e4             # W: peak voltage times peak current of a coil of th
 SPLIT_RESISTANCE = 1.0      # ohm: U/I of an over-powered record below this means a current slip, above a voltage one
 MAX_RESISTIVE_RATIO = 5.0   # R I_peak / U_peak: the coil's resistance alone needs more voltage than was applied
 MIN_TIME_CONSTANT = 0.1     # L/R in sample periods below which the coil's current is not resolved at all
-MIN_MASS = 1e-5             # kg: below this beside a force constant under MIN_FORCE_CONSTANT, the position
-MIN_FORCE_CONSTANT = 0.1    # N/A      is not in metres (m and Km fall as c^2 and c with a position c times large)
+MIN_MASS = 1e-5             # kg, and N/A: both below these, the position is not in metres (a position c
+MIN_FORCE_CONSTANT = 0.1    # times too large divides m by c^2 and Km by c)
 MAX_MASS = 1e4              # kg: above this the time is not in seconds
 PEAK_PERCENTILE = 99.9      # of |signal|, taken as its peak: one glitch does not count
 MIN_BALANCE = 0.25          # |a|, |b| of the voltage balance against a model from which their signs count
@@ -61,15 +61,10 @@ class Magnitudes:
     @classmethod
     def of(cls, recording):
         """The magnitudes of a Recording (or anything with `signals` and `sample_period`)."""
-        def peak(name):
-            values = recording.signals.get(name)
-            values = None if values is None else np.abs(np.asarray(values, dtype=float))
-            values = None if values is None else values[np.isfinite(values)]
-            return float(np.percentile(values, PEAK_PERCENTILE)) if values is not None and values.size else None
-        position = recording.signals.get('position')
-        position = None if position is None else np.asarray(position, dtype=float)
-        stroke = float(np.ptp(position[np.isfinite(position)])) if position is not None and position.size else None
-        return cls(recording.sample_period, peak('voltage'), peak('current'), stroke)
+        voltage, current, position = (_finite(recording.signals.get(n)) for n in ('voltage', 'current', 'position'))
+        peak = lambda values: None if values is None else float(np.percentile(np.abs(values), PEAK_PERCENTILE))  # noqa: E731
+        return cls(recording.sample_period, peak(voltage), peak(current),
+                   None if position is None else float(np.ptp(position)))
 
     @property
     def power(self):
@@ -80,6 +75,13 @@ class Magnitudes:
     def apparent_resistance(self):
         """Peak voltage over peak current (ohm), or None."""
         return None if self.power is None or self.current == 0 else self.voltage / self.current
+
+
+def _finite(values):
+    """The finite values of a signal as a float array, or None for no signal or no finite value."""
+    values = None if values is None else np.asarray(values, dtype=float)
+    values = None if values is None else values[np.isfinite(values)]
+    return values if values is not None and values.size else None
 
 
 def plausibility_warnings(parameters, std, recording, identified=True):
@@ -157,7 +159,7 @@ def _signs(parameters, std, signals, inputs):
                      (-1 if any(value(n) < 0 for n in names) else 1)
                      for names in (('resistance', 'inductance'), ('emf_constant',), ('mass',)))
     matches = [signal for signal, pattern in SIGN_PATTERNS.items()
-               if all(o is None or o == p for o, p in zip(observed, pattern))]
+               if all(o is None or o == p for o, p in zip(observed, pattern, strict=True))]
     if len(matches) == 1:
         (signal,) = matches
         return (f'{listed} {"is" if len(negative) == 1 else "are"} negative: the {signal} runs the other way '
