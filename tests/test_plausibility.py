@@ -15,6 +15,7 @@ from independent_plant import record
 from emla_cli.cli import main
 from emla_core.data import load
 from emla_core.errors import InputError
+from emla_identification.arx import identify_arx
 from emla_identification.discrepancy import diagnose
 from emla_identification.greybox import identify, parameter_scales, unit_scales
 from emla_identification.plausibility import plausibility_warnings, unit_flag
@@ -187,6 +188,15 @@ def test_extreme_but_finite_data_are_identified_in_rescaled_units(clean, scales)
         np.testing.assert_allclose(np.array(list(got.values())) / factor, list(want.values()), rtol=rtol)
     assert result.sample_period == 1e-4 * s['t'] and result.trajectory.time[-1] == pytest.approx(
         base.trajectory.time[-1] * s['t'])
+
+
+@pytest.mark.parametrize('su, sy', [(1e-90, 1e-90), (1e90, 1.0), (1.0, 1e-40)])
+def test_extreme_but_finite_data_give_the_same_arx_model(clean, su, sy):
+    _, voltage, current, _ = clean
+    base, scaled = identify_arx(voltage, current, 2, 2, 1), identify_arx(voltage * su, current * sy, 2, 2, 1)
+    np.testing.assert_allclose(scaled.a, base.a, rtol=1e-4)   # (the prior P0 weighs a little differently)
+    np.testing.assert_allclose(scaled.b, base.b * sy / su, rtol=1e-4)
+    assert scaled.fit_percent == pytest.approx(base.fit_percent, rel=1e-6)
 
 
 def load_signals(signals):

@@ -18,6 +18,7 @@ from .rls import RecursiveLeastSquares
 
 DEFAULT_ORDERS = (2, 2, 1)
 DEFAULT_SIGNALS = ('voltage', 'current')  # (input u, output y)
+RESCALE_BEYOND = 2.0 ** 16  # peak |u| or |y| (any units) beyond which, or below whose inverse, identify_arx rescales
 # Largest orders taken: na, nb (the regressor has na + nb columns; higher orders fit noise) and the delay nk
 MAX_ORDERS = {'na': 100, 'nb': 100, 'nk': 10_000}
 
@@ -123,7 +124,8 @@ def identify_arx(u, y, na, nb, nk, forgetting=1.0, initial_covariance=1e6):
     Parameters
     ----------
     u, y : array_like
-        Input and output, 1-D, uniformly sampled, of equal length (any units).
+        Input and output, 1-D, uniformly sampled, of equal length (any units; peaks beyond 2^16 or below 2^-16
+        are rescaled by powers of two for the recursion, and b scaled back).
     na, nb, nk : int
         Orders: output lags, input lags and the input delay in samples (the DC-motor paper uses 4, 3, 1).
     forgetting : float, optional
@@ -153,7 +155,8 @@ def identify_arx(u, y, na, nb, nk, forgetting=1.0, initial_covariance=1e6):
     >>> np.round(model.a, 6).tolist(), np.round(model.b, 6).tolist()
     ([1.0, -0.9], [0.5])
     """
-    Phi, Y = arx_regressors(u, y, na, nb, nk)
+    su, sy = _scale(u), _scale(y)
+    Phi, Y = arx_regressors(np.asarray(u, dtype=float) / su, np.asarray(y, dtype=float) / sy, na, nb, nk)
     if len(Y) == 0:
         raise ValueError(f'record of {len(y)} samples is too short for ARX({na}, {nb}, {nk})')
     rls = RecursiveLeastSquares(na + nb, forgetting=forgetting, initial_covariance=initial_covariance)
@@ -162,13 +165,23 @@ def identify_arx(u, y, na, nb, nk, forgetting=1.0, initial_covariance=1e6):
         raise ValueError('the recursion gives no finite estimate: the signals are too large or too small for it '
                          '(give their units with --units)')
     yhat = Phi @ rls.theta
-    return ArxModel.from_theta(rls.theta, na, nb, nk, forgetting=rls.forgetting,
-                               fit_percent=fit_percent(Y, yhat), mse=mse(Y, yhat))
+    theta = rls.theta * np.concatenate((np.ones(na), np.full(nb, sy / su)))   # b in the units of y per u
+    return ArxModel.from_theta(theta, na, nb, nk, forgetting=rls.forgetting, fit_percent=fit_percent(Y, yhat),
+                               mse=mse(Y, yhat) * sy * sy)
+
+
+def _scale(values):
+    """The power of two nearest the peak of |values| if it lies beyond RESCALE_BEYOND of 1, else 1: dividing by
+    it is exact and keeps the prior P0 negligible beside the data and their squares finite."""
+    values = np.abs(np.asarray(values, dtype=float))
+    peak = float(np.max(values[np.isfinite(values)], initial=0.0))
+    return 2.0 ** round(np.log2(peak)) if peak and not 1 / RESCALE_BEYOND <= peak <= RESCALE_BEYOND else 1.0
 
 
 class ArxEstimator:
     """Online ARX identification from consecutive frames of u and y (history kept across frames, restarted by
-    gap()). Its `model` is identify_arx's on the same samples: the same theta, and the fit and MSE of the latest
+    gap()). Its `model` is identify_arx's on the same samples (of ordinary size; identify_arx rescales signals
+    beyond RESCALE_BEYOND, this does not): the same theta, and the fit and MSE of the latest
     theta over every row used, from the rows' mean and scatter (to rounding; ill-conditioned rows cost digits)."""
 
     def __init__(self, na, nb, nk, **rls_options):
