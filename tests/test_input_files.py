@@ -3,6 +3,7 @@ quoted headers, ';' with decimal commas, --delimiter/--decimal), MATLAB files th
 used, inputs that are no regular file, and values too large to compute with. Each problem is one line
 (exit 2 through the CLI), never a traceback nor a read that does not end."""
 import os
+import struct
 import subprocess
 import tracemalloc
 
@@ -172,6 +173,26 @@ def test_a_matlab_file_loads_only_the_variables_used(scope, monkeypatch):
     assert set(recording.signals) == {'voltage', 'current', 'position'}
     np.testing.assert_array_equal(recording.signals['current'], np.cos(np.arange(500)))
     assert peak < 4e6, peak      # the 32 MB matrix and 32 MB vector are neither loaded nor decompressed
+
+
+def v5_vector(order, name, values):
+    """An uncompressed miMATRIX element of a real double row vector, as the MAT-file format describes it: array
+    flags, dimensions, name (in the small data element form up to 4 characters), real part."""
+    raw = name.encode()
+    named = (struct.pack(order + 'I', len(raw) << 16 | 1) + raw.ljust(4, b'\0') if len(raw) <= 4
+             else struct.pack(order + 'II', 1, len(raw)) + raw.ljust((len(raw) + 7) // 8 * 8, b'\0'))
+    body = (struct.pack(order + 'IIII', 6, 8, 6, 0) + struct.pack(order + 'IIii', 5, 8, 1, len(values)) + named
+            + struct.pack(order + 'II', 9, 8 * len(values)) + np.asarray(values, dtype=order + 'f8').tobytes())
+    return struct.pack(order + 'II', 14, len(body)) + body
+
+
+@pytest.mark.parametrize('order, mark', [('<', b'IM'), ('>', b'MI')], ids=['little-endian', 'big-endian'])
+def test_matlab_v5_headers_of_either_byte_order(tmp_path, order, mark):
+    path = tmp_path / 'hand.mat'
+    header = b'MATLAB 5.0 MAT-file'.ljust(116) + bytes(8) + struct.pack(order + 'H', 0x0100) + mark
+    path.write_bytes(header + v5_vector(order, 't', [0.0, 1e-3, 2e-3]) + v5_vector(order, 'voltage', [3, 4, 5]))
+    assert tables.mat_vectors(path) == {'t': 3, 'voltage': 3}
+    np.testing.assert_array_equal(load(path).signals['voltage'], [3, 4, 5])
 
 
 def test_a_matlab_v73_file_reads_only_the_datasets_used(tmp_path, monkeypatch):

@@ -142,14 +142,16 @@ def _parse(path, names, dialect, show):
         parse_options=pacsv.ParseOptions(delimiter=dialect.delimiter),
         convert_options=pacsv.ConvertOptions(column_types={name: pa.float64() for name in names},
                                              null_values=[], decimal_point=dialect.decimal))
-    with path.open('rb') as f, tqdm(total=size, unit='B', unit_scale=True, desc=path.name, file=sys.stderr,
-                                    disable=not show, leave=False) as bar:
+    with path.open('rb') as f:
         sample = f.read(1 << 20)
-        f.seek(0)
-        capacity = int(size * (sample.count(b'\n') + 1) / max(len(sample), 1) * 1.05) + 1024
-        columns = [np.empty(capacity) for _ in names]
-        rows = 0
-        try:
+    capacity = int(size * (sample.count(b'\n') + 1) / max(len(sample), 1) * 1.05) + 1024
+    columns = [np.empty(capacity) for _ in names]
+    rows = 0
+    # An arrow file, not a Python one: arrow's I/O threads must not need the GIL, which they cannot take
+    # while the interpreter shuts down (std::terminate, exit 134).
+    try:
+        with pa.OSFile(str(path)) as f, tqdm(total=size, unit='B', unit_scale=True, desc=path.name,
+                                             file=sys.stderr, disable=not show, leave=False) as bar:
             for batch in pacsv.open_csv(f, **options):
                 if rows + batch.num_rows > capacity:
                     capacity = (rows + batch.num_rows) * 3 // 2
@@ -159,10 +161,10 @@ def _parse(path, names, dialect, show):
                     column[rows:rows + batch.num_rows] = values.to_numpy()
                 rows += batch.num_rows
                 bar.update(f.tell() - bar.n)
-        except pa.ArrowInvalid as exc:
-            raise InputError(_parse_error(path, names, dialect, str(exc))) from None
-        except OSError as exc:
-            raise InputError(f'{path}: cannot read as CSV text: {exc}') from None
+    except pa.ArrowInvalid as exc:
+        raise InputError(_parse_error(path, names, dialect, str(exc))) from None
+    except OSError as exc:
+        raise InputError(f'{path}: cannot read as CSV text: {exc}') from None
     for column in columns:
         column.resize(rows, refcheck=False)
     return columns
