@@ -43,8 +43,9 @@ def rows():
     return [[f'{value:.10g}' for value in row] for row in table]
 
 
-def write(path, rows, delimiter=',', decimal='.', header=NAMES, bom=False, newline='\n'):
-    lines = [delimiter.join(header)] + [delimiter.join(v.replace('.', decimal) for v in row) for row in rows]
+def write(path, rows, delimiter=',', decimal='.', header=NAMES, bom=False, newline='\n', end=''):
+    lines = [delimiter.join(header) + end] + [delimiter.join(v.replace('.', decimal) for v in row) + end
+                                              for row in rows]
     path.write_text(newline.join(lines) + newline, encoding='utf-8-sig' if bom else 'utf-8')
     return path
 
@@ -57,12 +58,12 @@ def assert_same(recording, reference):
         np.testing.assert_array_equal(recording.signals[name], values, err_msg=name)
 
 
-@pytest.mark.parametrize('kind', ['bom', 'quoted', 'semicolon', 'tab', 'excel'])
+@pytest.mark.parametrize('kind', ['bom', 'quoted', 'semicolon', 'tab', 'excel', 'trailing'])
 def test_spreadsheet_csv_gives_the_recording_of_the_plain_one(tmp_path, rows, kind):
     reference = load(write(tmp_path / 'plain.csv', rows))
     quoted = [f'"{name}"' for name in NAMES]
     variant = {'bom': dict(bom=True), 'quoted': dict(header=quoted), 'semicolon': dict(delimiter=';', decimal=','),
-               'tab': dict(delimiter='\t'),
+               'tab': dict(delimiter='\t'), 'trailing': dict(delimiter=';', decimal=',', end=';'),
                'excel': dict(bom=True, header=quoted, delimiter=';', decimal=',', newline='\r\n')}[kind]
     assert_same(load(write(tmp_path / f'{kind}.csv', rows, **variant)), reference)
 

@@ -32,7 +32,8 @@ _HDF5_SIGNATURE = b'\x89HDF\r\n\x1a\n'   # at byte 0, or 512 behind MATLAB's hea
 
 
 def read_csv_columns(path, delimiter=None, decimal=None, progress=None):
-    """{header name: column} of a CSV file with a header row and numeric rows.
+    """{header name: column} of a CSV file with a header row and numeric rows; columns without a name (as a
+    delimiter at the end of each line makes) are left out.
 
     Parameters
     ----------
@@ -61,18 +62,19 @@ def read_csv_columns(path, delimiter=None, decimal=None, progress=None):
     header, rows = _head(path)
     dialect = _dialect(path, header, rows, delimiter, decimal)
     names = [name.strip() for name in next(csv.reader([header], **dialect.csv))]
-    if len(set(names)) != len(names):
-        raise InputError(f'{path}: repeated column names in header {header!r}')
+    named = [name for name in names if name]
+    if not named or len(set(named)) != len(named):
+        raise InputError(f'{path}: {"repeated" if named else "no"} column names in header {header!r}')
     show = progress if progress is not None else sys.stderr.isatty() and path.stat().st_size >= PROGRESS_BYTES
     columns = _parse(path, names, dialect, show)
     if not len(columns[0]):
         raise InputError(f'{path}: no data rows')
-    for name, values in zip(names, columns, strict=True):
+    for name, values in zip(named, columns, strict=True):
         bad = ~np.isfinite(values)
         if bad.any():
             row = int(np.argmax(bad))
             raise InputError(f'{path}: non-finite value {values[row]} in column {name} at data row {row + 1}')
-    return dict(zip(names, columns, strict=True))
+    return dict(zip(named, columns, strict=True))
 
 
 class _Dialect(NamedTuple):
@@ -131,21 +133,26 @@ def _dialect(path, header, rows, delimiter, decimal):
 
 
 def _parse(path, names, dialect, show):
-    """The data rows of a CSV file as float columns, parsed by pyarrow block by block into arrays sized from
-    the first MiB's rows (so the file is held once, as floats, not once more as blocks)."""
+    """The data rows of a CSV file as float columns (of the named ones among `names`), parsed by pyarrow block
+    by block into arrays sized from the first MiB's rows (so the file is held once, as floats, not once more
+    as blocks)."""
     import pyarrow as pa
     import pyarrow.csv as pacsv
     from tqdm import tqdm
     size = path.stat().st_size
+    named = [name for name in names if name]
     options = dict(
-        read_options=pacsv.ReadOptions(column_names=names, skip_rows=1),
+        # unnamed columns get names no header holds, and are not converted
+        read_options=pacsv.ReadOptions(column_names=[name or f'\0{i}' for i, name in enumerate(names)],
+                                       skip_rows=1),
         parse_options=pacsv.ParseOptions(delimiter=dialect.delimiter),
-        convert_options=pacsv.ConvertOptions(column_types={name: pa.float64() for name in names},
-                                             null_values=[], decimal_point=dialect.decimal))
+        convert_options=pacsv.ConvertOptions(column_types={name: pa.float64() for name in named},
+                                             include_columns=named, null_values=[],
+                                             decimal_point=dialect.decimal))
     with path.open('rb') as f:
         sample = f.read(1 << 20)
     capacity = int(size * (sample.count(b'\n') + 1) / max(len(sample), 1) * 1.05) + 1024
-    columns = [np.empty(capacity) for _ in names]
+    columns = [np.empty(capacity) for _ in named]
     rows = 0
     # An arrow file, not a Python one: arrow's I/O threads must not need the GIL, which they cannot take
     # while the interpreter shuts down (std::terminate, exit 134).
