@@ -1,5 +1,6 @@
 """Input checks of the grey-box identification: one clear InputError naming the source and the problem."""
 import contextlib
+import warnings
 
 import numpy as np
 
@@ -11,9 +12,11 @@ from .rls import forgetting_factor
 
 MIN_ROWS = 16           # regression rows (samples - HISTORY) below which a record is too short
 _MAX_CONDITION = 1e12   # normalised information matrix above this: a parameter is not excited
-# Peak |signal| (SI) and sample period (s) the regressions hold in double precision: their rows divide
-# differences by Ts^2 and their sums square them, so far beyond these they over- or underflow.
-MAGNITUDES = (1e-30, 1e30)
+# Typical SI magnitudes (sample period s, peaks V, A, m, N). A record more than SPAN from them, or with a
+# sample period outside SAMPLE_PERIODS, is refused: its unit is far off, and the regressions (which divide
+# differences by Ts^2 and square them) and the discrepancy fit lose the magnitudes they are made for.
+TYPICAL = {'t': 1e-4, 'voltage': 10.0, 'current': 1.0, 'position': 1e-3, 'force': 1.0}
+SPAN = 1e9
 SAMPLE_PERIODS = (1e-9, 1e3)
 
 
@@ -59,14 +62,14 @@ def check_magnitudes(recording):
         raise InputError(f'{source}: the sample period {recording.sample_period:.3g} s is beyond what the '
                          f'identification resolves ({low:g} to {high:g} s): give the time\'s unit with --units '
                          f't=UNIT (or --sample-period in s)')
-    low, high = MAGNITUDES
     for name, values in recording.signals.items():
-        values = np.abs(np.asarray(values, dtype=float)) if name in SI_UNITS else np.zeros(0)
+        values = np.abs(np.asarray(values, dtype=float)) if name in TYPICAL else np.zeros(0)
         peak = float(np.max(values[np.isfinite(values)], initial=0.0))
+        low, high = (TYPICAL.get(name, 1.0) * f for f in (1 / SPAN, SPAN))
         if peak and not low <= peak <= high:
             raise InputError(f'{source}: the {name} peaks at {peak:.3g} {SI_UNITS[name]}, beyond what the '
-                             f'identification holds in double precision ({low:g} to {high:g} '
-                             f'{SI_UNITS[name]}): give its unit with --units {name}=UNIT')
+                             f'identification is made for ({low:g} to {high:g} {SI_UNITS[name]}): give its unit '
+                             f'with --units {name}=UNIT')
 
 
 @contextlib.contextmanager
@@ -75,7 +78,8 @@ def numerical_failures(source, what):
     WHAT from these data: why' (what: 'the full model cannot be identified'); the library's boundary to its
     users. Floating-point warnings inside are silenced: their results are checked where they matter."""
     try:
-        with np.errstate(all='ignore'):
+        with np.errstate(all='ignore'), warnings.catch_warnings():
+            warnings.simplefilter('ignore', RuntimeWarning)   # (a mean of nothing: NaN, reported where used)
             yield
     except (ValueError, ZeroDivisionError, OverflowError, FloatingPointError) as exc:  # LinAlgError: a ValueError
         reason = str(exc) if type(exc) is ValueError else f'the arithmetic failed ({exc or type(exc).__name__})'

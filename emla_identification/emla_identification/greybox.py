@@ -8,7 +8,7 @@ physical parameters follow from the solutions (physical.py) with uncertainties f
 
 The regressions are made for SI magnitudes: their prior (P0 = 1e6 I) must be negligible beside the data's
 information, and their sums of squares must neither over- nor underflow. A record whose sample period or
-signal peaks lie more than RESCALE_BEYOND from typical ones (TYPICAL) is identified in rescaled units, by
+signal peaks lie more than RESCALE_BEYOND from typical ones (checks.TYPICAL) is identified in rescaled units, by
 powers of two (exact), and its parameters are scaled back by their dimensions.
 """
 import math
@@ -20,12 +20,11 @@ from emla_core.data import as_recording
 from emla_core.errors import InputError
 
 from . import offline
-from .checks import check_excitation, checked, numerical_failures
+from .checks import TYPICAL, check_excitation, checked, numerical_failures
 from .moments import RowMoments
 from .physical import physical
 from .regressors import HISTORY, instruments, rows
 
-TYPICAL = {'t': 1e-4, 'voltage': 10.0, 'current': 1.0, 'position': 1e-3, 'force': 1.0}  # s, V, A, m, N
 RESCALE_BEYOND = 2.0 ** 16
 
 

@@ -32,9 +32,11 @@ MAX_POWER = 1e4             # W: peak voltage times peak current of a coil of th
 SPLIT_RESISTANCE = 1.0      # ohm: U/I of an over-powered record below this means a current slip, above a voltage one
 MAX_RESISTIVE_RATIO = 5.0   # R I_peak / U_peak: the coil's resistance alone needs more voltage than was applied
 MIN_TIME_CONSTANT = 0.1     # L/R in sample periods below which the coil's current is not resolved at all
-MIN_MASS = 1e-5             # kg, and N/A: both below these, the position is not in metres (a position c
-MIN_FORCE_CONSTANT = 0.1    # times too large divides m by c^2 and Km by c)
-MAX_MASS = 1e4              # kg: above this the time is not in seconds
+MAX_TIME_CONSTANT = 0.1     # s: a coil's L/R is microseconds to tens of milliseconds
+MIN_MASS = 1e-5             # kg, and N/A: both below these beside an ordinary R, the position is not in
+MIN_FORCE_CONSTANT = 0.1    # metres (a position c times too large divides m by c^2 and Km by c, leaves R)
+MIN_RESISTANCE = 1e-3       # ohm: (a voltage too small divides R, Km and m alike)
+MAX_MASS = 1e4              # kg: above this beside an L/R above MAX_TIME_CONSTANT, the time is not in seconds
 PEAK_PERCENTILE = 99.9      # of |signal|, taken as its peak: one glitch does not count
 MIN_BALANCE = 0.25          # |a|, |b| of the voltage balance against a model from which their signs count
 
@@ -235,7 +237,8 @@ def _position(parameters, magnitudes, inputs, shown):
     if stroke is not None and stroke > MAX_STROKE:
         factor, names = _usual_factor(stroke, MAX_STROKE), ('emf_constant', 'mass')
         what = f'the position spans {stroke:.3g} m, a stroke of metres'
-    elif 0 < mass < MIN_MASS and abs(parameters.get('emf_constant', 0.0)) < MIN_FORCE_CONSTANT:
+    elif 0 < mass < MIN_MASS and abs(parameters.get('emf_constant', 0.0)) < MIN_FORCE_CONSTANT and \
+            parameters.get('resistance', 1.0) > MIN_RESISTANCE:
         factor, names = 1e-3, ()
         what = f'the mass {mass:.3g} kg' + (f' and the force constant {parameters["emf_constant"]:.3g} N/A are'
                                             if 'emf_constant' in parameters else ' is') + ' implausibly small'
@@ -253,7 +256,7 @@ def _time(parameters, magnitudes, inputs, shown):
     if ts > MAX_SAMPLE_PERIOD or (tau is not None and tau < MIN_TIME_CONSTANT * ts):
         factor, names = _usual_factor(ts, min(MAX_SAMPLE_PERIOD, tau / MIN_TIME_CONSTANT if tau else np.inf)), ('mass',)
         what = f'the sample period is {ts:.3g} s, slow for a coil'
-    elif mass > MAX_MASS:
+    elif mass > MAX_MASS and (tau is None or tau > MAX_TIME_CONSTANT):   # a time slip stretches L/R too
         factor, names = 1e-3, ()
         what = f'the mass {mass:.3g} kg is implausibly large'
     else:

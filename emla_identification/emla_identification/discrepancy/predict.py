@@ -34,8 +34,8 @@ class Prediction:
 
     @property
     def nrmse(self):
-        """||y - yhat|| / ||y - mean(y)||."""
-        spread = np.linalg.norm(self.measured - self.measured.mean())
+        """||y - yhat|| / ||y - mean(y)||; NaN when y is empty (a horizon longer than the record) or constant."""
+        spread = np.linalg.norm(self.measured - self.measured.mean()) if self.measured.size else 0.0
         return float(np.linalg.norm(self.measured - self.predicted) / spread) if spread else float('nan')
 
 
