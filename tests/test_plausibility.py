@@ -226,3 +226,18 @@ def test_figures_that_cannot_be_computed_are_null_with_a_warning(clean, tmp_path
     status, result, err = run(capsys, 'compare', path, '--model-file', model)
     assert status == 0 and result['fit_percent']['current'] is None and 'fit current n/a' in err
     assert 'fit_percent.current cannot be computed from these data (null in the JSON)' in result['warnings']
+
+
+def test_a_record_shorter_than_the_prediction_horizon_reports_what_it_cannot(clean, tmp_path, capsys):
+    """At 10 MHz the 10 ms position horizon is 1e5 samples, more than the record: its gap cannot be computed;
+    the report says n/a and the plots say why, instead of failing."""
+    path = plain_csv(tmp_path / 'fast.csv', changed(clean, (0,), 1e-3))
+    status, _, err = run(capsys, 'discrepancy', path, '--report', tmp_path / 'report', '--json', tmp_path / 'd.json')
+    assert status == 0, err
+    warnings = json.loads((tmp_path / 'd.json').read_text())['warnings']
+    assert 'gap_before.position cannot be computed from these data (null in the JSON)' in warnings
+    assert '| position | n/a | n/a |' in (tmp_path / 'report' / 'report.md').read_text()
+    model = tmp_path / 'model.yaml'
+    assert run(capsys, 'identify', plain_csv(tmp_path / 'clean.csv', clean), '--model-out', model)[0] == 0
+    status, _, err = run(capsys, 'compare', path, '--model-file', model, '--plot', tmp_path / 'compare.png')
+    assert status == 0 and 'fit current n/a, position n/a' in err and (tmp_path / 'compare.png').exists()

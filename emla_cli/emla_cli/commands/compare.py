@@ -106,6 +106,10 @@ def plot(predictions, recording, path, window=0.08):
     colours = ('tab:red', 'tab:blue')
     for j, signal in enumerate(signals):
         reference = first[signal]
+        if not reference.index.size:
+            axes[0, j].text(0.5, 0.5, f'{signal}: nothing predicted (a horizon of {reference.horizon} samples is '
+                            'longer than the record)', ha='center', transform=axes[0, j].transAxes)
+            continue
         span = int(window / ts)
         error = np.abs(reference.measured - reference.predicted)
         centre = int(np.argmax(np.convolve(error, np.ones(span), mode='same')))

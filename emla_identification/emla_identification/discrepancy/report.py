@@ -45,6 +45,10 @@ def _gap_figure(plt, diagnosis):
     for j, signal in enumerate(signals):
         b, a = diagnosis.before[signal], diagnosis.after[signal]
         common, ib, ia = np.intersect1d(b.index, a.index, return_indices=True)
+        if not common.size:
+            axes[0, j].text(0.5, 0.5, f'{signal}: nothing predicted (a horizon of {b.horizon} samples is longer '
+                            'than the record)', ha='center', transform=axes[0, j].transAxes)
+            continue
         error = np.abs(b.measured[ib] - b.predicted[ib])
         span = int(WINDOW / ts)
         centre = int(np.argmax(np.convolve(error, np.ones(span), mode='same')))
@@ -132,7 +136,7 @@ def _markdown(diagnosis, before):
                   'gap after (NRMSE) |', '|---|---|---|---|']
         for effect in d['effects']:
             params = '; '.join(f'{k} = {v:.6g} +- {effect["std"][k]:.2g}' for k, v in effect['parameters'].items())
-            gaps = ', '.join(f'{s} {v:.4g}' for s, v in effect['gap_after'].items())
+            gaps = ', '.join(f'{s} {_figure(v)}' for s, v in effect['gap_after'].items())
             lines.append(f'| {effect["effect"]} | {params} | {100 * effect["share"]:.0f} % | {gaps} |')
         lines.append('')
     if diagnosis.partial is not None:
@@ -157,7 +161,7 @@ def _markdown(diagnosis, before):
     lines += ['', '![disagreement](disagreement.png)', '',
               '## Gap between model and measurement', '', d['method'] + '.', '',
               '| signal | NRMSE nominal | NRMSE final |', '|---|---|---|']
-    lines += [f'| {s} | {d["gap_before"][s]:.4g} | {d["gap_after"][s]:.4g} |' for s in d['gap_before']]
+    lines += [f'| {s} | {_figure(d["gap_before"][s])} | {_figure(d["gap_after"][s])} |' for s in d['gap_before']]
     lines += ['', 'NRMSE = ||y - yhat|| / ||y - mean(y)||.', '', '![prediction](gap.png)', '',
               '## Candidate effects', '',
               f'Significant = better on at least {MIN_BLOCKS} of {FOLDS} held-out blocks (sign test), score '
@@ -211,6 +215,11 @@ def _disagreement_figure(plt, diagnosis):
         ax.set_title(f'{equation} ({"final" if diagnosis.stages else "nominal"} model): {state}', fontsize=10)
     figure.tight_layout()
     return figure
+
+
+def _figure(value):
+    """A figure of the report, or 'n/a' where it could not be computed."""
+    return f'{value:.4g}' if np.isfinite(value) else 'n/a'
 
 
 def _pm(value, sigma):
