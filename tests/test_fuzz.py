@@ -1,24 +1,26 @@
 """Fuzz (issue 19): seeded mutations of every kind of input the commands read - CSV and MAT files, bags (their
 MCAP file or metadata.yaml), model files, params files, numeric option values - run through `emla` in this
-process. For each one: no traceback and no exception but SystemExit, exit status 0 or 2, no input file changed,
-within CASE_TIMEOUT s.
+process (each case in a child forked from it: a crash or a hang is a finding, not the end of the run). For each
+one: no traceback and no exception but SystemExit, exit status 0 or 2, no input file changed, within CASE_TIMEOUT
+s, in MEMORY_LIMIT bytes of address space.
 
 EMLA_FUZZ_CASES sets the number of cases (default 2000, about 30 s; `make sweep` runs 20000) and
 EMLA_FUZZ_SEED the seed (default 0): case k of a seed is the same input and command line on every run, so a
-finding is replayed by its seed and case. Inputs of failing cases are kept under EMLA_FUZZ_KEEP (a directory)
-when it is set.
+finding is replayed by its seed and case (EMLA_FUZZ_FIRST=k EMLA_FUZZ_CASES=1). Inputs of failing cases are kept
+under EMLA_FUZZ_KEEP (a directory) when it is set.
 """
 import collections
 import contextlib
 import hashlib
 import io
+import json
 import os
 import random
 import re
 import resource
+import select
 import shutil
 import signal
-import sys
 import traceback
 from pathlib import Path
 
@@ -35,6 +37,7 @@ from emla_core.nodes import params_file
 
 CASES = int(os.environ.get('EMLA_FUZZ_CASES', '2000'))
 SEED = int(os.environ.get('EMLA_FUZZ_SEED', '0'))
+FIRST = int(os.environ.get('EMLA_FUZZ_FIRST', '0'))
 KEEP = os.environ.get('EMLA_FUZZ_KEEP')
 CASE_TIMEOUT = 30              # s for one case: longer is a hang
 MEMORY_LIMIT = 12 * 2 ** 30    # bytes of address space: a mutation that allocates without bound fails, not the host
@@ -222,7 +225,23 @@ def seeds(tmp_path_factory):
     quiet(['discrepancy', folder / 'discrepancy', '--model-out', folder / 'friction.yaml', '--json', folder / 'd.json'])
     for node, package in (('identifier', 'emla_identification'), ('plant', 'emla_sim')):
         shutil.copy(REPO / package / 'config' / f'{node}.yaml', folder / f'{node}.yaml')
-    return {path.stem: path for path in folder.iterdir()}
+    paths = {path.stem: path for path in folder.iterdir()}
+    warm_up(paths, tmp_path_factory.mktemp('warm'))
+    return paths
+
+
+def warm_up(seeds, out):
+    """Run each command's path once here, so that the forked cases find its modules loaded and compiled (a child's
+    compilation is lost with it), and without tqdm's monitor thread (a lock it holds at a fork would hang the
+    child)."""
+    import tqdm
+    tqdm.tqdm.monitor_interval = 0
+    for argv in (['identify', seeds['short']], ['identify', seeds['short'], '--model', 'electrical'],
+                 ['identify', seeds['short'], '--model', 'arx'], ['identify', seeds['scope'], *MAT_COLUMNS],
+                 ['identify', seeds['long'], '--model-file', seeds['friction']],
+                 ['compare', seeds['long'], '--model-file', seeds['friction']],
+                 ['simulate', '--duration', '0.01', '--bag', out / 'bag', '--model-file', seeds['friction']]):
+        quiet(argv)
 
 
 # ---- the cases ----
@@ -293,14 +312,6 @@ def make_case(k, seeds, folder):
     return kind, what, rng.choice(commands(rng, kind, path, seeds, out)), [path], None
 
 
-class Hung(BaseException):
-    """A case that ran longer than CASE_TIMEOUT."""
-
-
-def _hung(signum, frame):
-    raise Hung
-
-
 def digest(paths):
     """A hash of every file under `paths` (files or directories)."""
     h = hashlib.sha256()
@@ -317,33 +328,75 @@ def check_params_file(path):
     one-line refusal."""
     run_node._check_params_file(str(path), ['--ros-args', '--params-file', str(path)])
     for name, tree in params_file.read_params_files(['--params-file', str(path)]).items():
-        params_file.check_sections(name, tree, f'/emla/{path.stem}')
+        params_file.check_sections(name, tree, f'/emla/{Path(path).stem}')
 
 
-def run_case(argv, params):
-    """(exit status, stderr, the traceback of an exception other than SystemExit or None)."""
+def _outcome(argv, params):
+    """(exit status, stderr, the traceback of an exception other than SystemExit or None) of a case run here: the
+    command line `argv`, or the checks of the params file `params`."""
     out, err = io.StringIO(), io.StringIO()
-    signal.alarm(CASE_TIMEOUT)
     try:
         with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-            if params is not None:
-                try:
-                    check_params_file(params)
-                    status = 0
-                except InputError as exc:
-                    print(f'error: {exc}', file=sys.stderr)
-                    status = 2
-            else:
-                status = cli.main([str(a) for a in argv])
+            if params is None:
+                return cli.main([str(a) for a in argv]), err.getvalue(), None
+            try:
+                check_params_file(params)
+            except InputError as exc:
+                return 2, f'error: {exc}\n', None
+            return 0, '', None
     except SystemExit as exc:
-        status = exc.code
-    except Hung:
-        return None, err.getvalue(), f'hung: more than {CASE_TIMEOUT} s'
+        return exc.code, err.getvalue(), None
     except BaseException:  # noqa: BLE001 - what the fuzz looks for
         return None, err.getvalue(), traceback.format_exc()
-    finally:
-        signal.alarm(0)
-    return status, err.getvalue(), None
+
+
+class Worker:
+    """A child process forked from this one (its modules loaded and compiled already) that runs the cases it is
+    sent one after another, its address space limited to MEMORY_LIMIT: a crash (scipy's MAT reader has
+    segfaulted), a hang or a runaway allocation ends the worker, not the fuzz; a new one takes the next case."""
+
+    def __init__(self):
+        requests, self._to_worker = os.pipe()
+        self._from_worker, replies = os.pipe()
+        self.pid = os.fork()
+        if self.pid == 0:
+            os.close(self._to_worker)
+            os.close(self._from_worker)
+            resource.setrlimit(resource.RLIMIT_AS, (MEMORY_LIMIT, resource.getrlimit(resource.RLIMIT_AS)[1]))
+            with os.fdopen(requests) as cases, os.fdopen(replies, 'w') as outcomes:
+                for line in cases:
+                    status, err, exception = _outcome(*json.loads(line))
+                    outcomes.write(json.dumps([status, err[-10_000:], exception]) + '\n')
+                    outcomes.flush()
+            os._exit(0)  # without pytest's clean-up
+        os.close(requests)
+        os.close(replies)
+        self._requests, self._replies = os.fdopen(self._to_worker, 'w'), os.fdopen(self._from_worker)
+
+    def run(self, argv, params):
+        """_outcome() of a case, or (None, '', what ended the worker): then the worker is gone (see stop)."""
+        self._requests.write(json.dumps([argv and [str(a) for a in argv], params and str(params)]) + '\n')
+        self._requests.flush()
+        answered = select.select([self._replies], [], [], CASE_TIMEOUT)[0]
+        line = self._replies.readline() if answered else ''
+        if line.endswith('\n'):
+            return tuple(json.loads(line))
+        if not answered:
+            os.kill(self.pid, signal.SIGKILL)
+        status = os.waitstatus_to_exitcode(os.waitpid(self.pid, 0)[1])
+        self.pid = None
+        return None, '', (f'hung: more than {CASE_TIMEOUT} s' if not answered else
+                          f'the process died: {f"signal {-status}" if status < 0 else f"status {status}"}')
+
+    def alive(self):
+        return self.pid is not None
+
+    def stop(self):
+        """End the worker (it leaves at the end of its requests) and close the pipes."""
+        self._requests.close()
+        self._replies.close()
+        if self.pid is not None:
+            os.waitpid(self.pid, 0)
 
 
 def finding(status, err, exception, changed):
@@ -363,26 +416,20 @@ def finding(status, err, exception, changed):
     return None
 
 
-@pytest.fixture
-def bounded_memory():
-    """The address space of this process limited to MEMORY_LIMIT while the fuzz runs."""
-    soft, hard = resource.getrlimit(resource.RLIMIT_AS)
-    resource.setrlimit(resource.RLIMIT_AS, (MEMORY_LIMIT, hard))
-    yield
-    resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
-
-
-def test_mutated_inputs_give_one_line_or_a_result_and_change_no_input(seeds, tmp_path, bounded_memory):
+def test_mutated_inputs_give_one_line_or_a_result_and_change_no_input(seeds, tmp_path):
     findings, outcomes = [], collections.Counter()
     untouched = digest(seeds.values())   # the unmutated inputs some commands read besides the mutated one
-    previous = signal.signal(signal.SIGALRM, _hung)
+    worker = Worker()
     try:
-        for k in range(CASES):
+        for k in range(FIRST, FIRST + CASES):
             folder = tmp_path / f'case{k}'
             folder.mkdir()
             kind, what, argv, inputs, params = make_case(k, seeds, folder)
             before = digest(inputs)
-            status, err, exception = run_case(argv, params)
+            if not worker.alive():   # the last case ended it
+                worker.stop()
+                worker = Worker()
+            status, err, exception = worker.run(argv, params)
             problem = finding(status, err, exception, digest(inputs) != before)
             outcomes[kind, status] += 1
             if problem:
@@ -391,7 +438,7 @@ def test_mutated_inputs_give_one_line_or_a_result_and_change_no_input(seeds, tmp
                     shutil.copytree(folder, Path(KEEP) / f'seed{SEED}-case{k}', dirs_exist_ok=True)
             shutil.rmtree(folder)
     finally:
-        signal.signal(signal.SIGALRM, previous)
+        worker.stop()
     print(f'fuzz: {CASES} cases (seed {SEED}), {len(findings)} findings; (input, exit status): cases',
           dict(sorted(outcomes.items(), key=str)))
     assert not findings, '\n'.join(findings[:50])
