@@ -112,8 +112,8 @@ def plausibility_warnings(parameters, std, recording, identified=True):
     magnitudes = Magnitudes.of(recording)
     inputs = getattr(recording, 'inputs', None) or {}
     shown = parameters if identified else {}
-    found = [_signs(parameters, std, recording.signals, inputs) if identified else
-             _against_model(parameters, recording.signals, recording.sample_period, inputs)]
+    found = [_signs(parameters, std, recording.signals, inputs), _coil_voltage(parameters, magnitudes)] \
+        if identified else [_against_model(parameters, recording.signals, recording.sample_period, inputs)]
     found += [check(parameters, magnitudes, inputs, shown) for check in (_current, _voltage, _position, _time)]
     return [message for message in found if message]
 
@@ -193,20 +193,37 @@ def _against_model(parameters, signals, sample_period, inputs):
         f'the {signal} runs the other way round ({SIGN_CAUSES[signal]}); flip it with {unit_flag(inputs, signal, -1)}')
 
 
+def _resistive_voltage(parameters, magnitudes):
+    """R I_peak, when it exceeds MAX_RESISTIVE_RATIO times the peak voltage (the coil's resistance alone would
+    need more voltage than was applied), else None."""
+    resistance, current, voltage = parameters.get('resistance', 0.0), magnitudes.current, magnitudes.voltage
+    needed = resistance * current if resistance > 0 and current and voltage else None
+    return needed if needed is not None and needed > MAX_RESISTIVE_RATIO * voltage else None
+
+
+def _coil_voltage(parameters, magnitudes):
+    """Identified parameters whose R cannot drive the current from the voltage: the voltage is not the coil's.
+    (A unit slip keeps R I_peak / U_peak: R is fitted to the data.)"""
+    needed = _resistive_voltage(parameters, magnitudes)
+    return None if needed is None else (
+        f'R = {parameters["resistance"]:.3g} ohm needs {needed:.3g} V to drive the {magnitudes.current:.3g} A the '
+        f'current reaches, the voltage reaches {magnitudes.voltage:.3g} V: is the voltage the one across the coil '
+        f'(not a supply or a set-point)? is the current the coil\'s?')
+
+
 def _current(parameters, magnitudes, inputs, shown):
-    """A current in mA read as A: thousands of amps, more than the voltage drives through R, or the power of
-    a small power station at a low apparent resistance."""
+    """A current in mA read as A: thousands of amps, more than a model's R lets the voltage drive, or the power
+    of a small power station at a low apparent resistance."""
     current, voltage, power = magnitudes.current, magnitudes.voltage, magnitudes.power
     if current is None:
         return None
-    resistive = (parameters['resistance'] * current / voltage
-                 if parameters.get('resistance', 0.0) > 0 and voltage else None)
+    needed = None if shown else _resistive_voltage(parameters, magnitudes)   # R from a model, not these data
     overpowered = power is not None and power > MAX_POWER and magnitudes.apparent_resistance < SPLIT_RESISTANCE
     if current > MAX_CURRENT:
         why = ''
-    elif resistive is not None and resistive > MAX_RESISTIVE_RATIO:
-        why = (f'; R = {parameters["resistance"]:.3g} ohm needs {parameters["resistance"] * current:.3g} V to '
-               f'drive it, the voltage reaches {voltage:.3g} V')
+    elif needed is not None:
+        why = (f'; R = {parameters["resistance"]:.3g} ohm needs {needed:.3g} V to drive it, the voltage reaches '
+               f'{voltage:.3g} V')
     elif overpowered:
         why = f' at {voltage:.3g} V, a coil drawing {power / 1e3:.3g} kW'
     else:

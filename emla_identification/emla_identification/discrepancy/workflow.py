@@ -270,7 +270,8 @@ def diagnose(data=None, names=None, *, sample_period=None, voltage=None, current
         nominal = fit(data)                                                   # non-finite or unphysical estimates
         warnings = plausibility_warnings(_physical_only(nominal.parameters), nominal.std, recording)
         if not physical(nominal.parameters):
-            found = ', '.join(f'{k} = {v:.4g}' for k, v in nominal.parameters.items())
+            found = (', '.join(f'{k} = {v:.4g}' for k, v in nominal.parameters.items())
+                     if all(np.isfinite(list(nominal.parameters.values()))) else 'no finite estimate')
             raise InputError(f'{data.source}: the nominal model cannot be identified from these data: ' +
                              ('; '.join(warnings) or f'{found}; does the recording excite the actuator?'))
         adequacy = assess_adequacy(nominal)
