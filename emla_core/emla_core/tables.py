@@ -279,7 +279,7 @@ def _vectors(path):
     if not head:
         raise InputError(f'{path}: empty file')
     version = ('hdf5' if _HDF5_SIGNATURE in (head[:8], head[512:520])
-               else 'v5' if len(head) >= 128 and head[126:128] in (b'IM', b'MI') else 'v4')
+               else 'v5' if head.startswith(b'MATLAB') or head[126:128] in (b'IM', b'MI') else 'v4')
     listing = {'hdf5': _hdf5_listing, 'v5': _v5_listing, 'v4': _v4_listing}[version](path)
     if len(listing) > MAX_MAT_VARIABLES:
         raise InputError(f'{path}: {len(listing)} variables, more than the {MAX_MAT_VARIABLES} the suite reads '
@@ -305,6 +305,8 @@ _V5_HEADER_BYTES = 4096    # of a variable's element: enough for its flags, dime
 def _v5_listing(path):
     """[(name, shape, class, (start, end) of its bytes)] of the variables of a v5/v7 MATLAB file."""
     size = path.stat().st_size
+    if size < 128:
+        raise InputError(f'{path}: not a readable MATLAB file: truncated in its 128-byte header')
     with path.open('rb') as f:
         order = '<' if f.read(128)[126:128] == b'IM' else '>'
         listing, start = [], 128
@@ -369,7 +371,8 @@ def _scipy_call(path, read):
     from scipy.io.matlab import MatReadError
     try:
         return read()
-    except (MatReadError, ValueError, TypeError, OSError, NotImplementedError) as exc:
+    except (MatReadError, ValueError, TypeError, IndexError, KeyError, OverflowError, OSError,
+            NotImplementedError) as exc:
         raise InputError(f'{path}: not a readable MATLAB file: {" ".join(str(exc).split())}') from None
 
 
