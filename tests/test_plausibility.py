@@ -241,3 +241,14 @@ def test_a_record_shorter_than_the_prediction_horizon_reports_what_it_cannot(cle
     assert run(capsys, 'identify', plain_csv(tmp_path / 'clean.csv', clean), '--model-out', model)[0] == 0
     status, _, err = run(capsys, 'compare', path, '--model-file', model, '--plot', tmp_path / 'compare.png')
     assert status == 0 and 'fit current n/a, position n/a' in err and (tmp_path / 'compare.png').exists()
+
+
+def test_a_voltage_that_cannot_drive_the_current_is_not_taken_for_a_unit_slip(clean, tmp_path, capsys):
+    """A constant 12 V (a supply logged instead of the coil voltage): the identified R needs far more voltage
+    than that to drive the current. A unit slip keeps R I_peak / U_peak, so no unit is advised."""
+    t, voltage, current, position = clean
+    path = plain_csv(tmp_path / 'supply.csv', (t, np.full_like(voltage, 12.0), current, position))
+    (warning,) = warned(capsys, 'identify', path)
+    assert 'is the voltage the one across the coil' in warning and '--units' not in warning
+    status, _, err = run(capsys, 'discrepancy', plain_csv(tmp_path / 'none.csv', (t, voltage, 0 * current, position)))
+    assert status == 2 and err.count('\n') == 1 and 'no finite estimate' in err and 'nan' not in err
