@@ -227,10 +227,13 @@ def test_matlab_limits_and_damage_are_one_line(scope, tmp_path, monkeypatch):
     truncated.write_bytes(scope.read_bytes()[:5000])
     with pytest.raises(InputError, match='damaged or truncated at byte'):
         load(truncated)
-    text = tmp_path / 'text.mat'
-    text.write_text('t,voltage\n0,1\n')
-    with pytest.raises(InputError, match='not a readable MATLAB file'):
-        load(text)
+    truncated.write_bytes(scope.read_bytes()[:121])
+    with pytest.raises(InputError, match='truncated in its 128-byte header'):
+        load(truncated)
+    for name, content in (('text.mat', b't,voltage\n0,1\n'), ('noise.mat', np.random.default_rng(5).bytes(36))):
+        (tmp_path / name).write_bytes(content)
+        with pytest.raises(InputError, match='not a readable MATLAB file'):
+            load(tmp_path / name)
 
 
 def test_an_empty_matlab_file_is_one_line(tmp_path):
