@@ -13,8 +13,9 @@ Units. A unit slip rescales the parameters consistently (a current in mA divides
 multiplies m, B and Fl by 1000), so the equations cannot show it; the magnitudes do: a coil's current is
 milliamps to tens of amps, its supply volts to hundreds, the power it draws at most kilowatts, its stroke
 millimetres to centimetres, its sample period well under 10 ms. And the current can never exceed what the
-voltage drives through the coil's resistance (R I_peak <= U_peak but for back-EMF), which catches a slip
-in data compared with a model of known R (emla compare).
+voltage drives through the coil's resistance (R I_peak <= U_peak but for back-EMF): against a model of
+known R (emla compare) a current too large points to a slip; with R identified from the data themselves (a
+slip keeps the ratio) to a voltage that is not the coil's.
 
 Data compared with a model (emla compare): the model's voltage balance on the measured signals, u = a (R I +
 L dI/dt) + b Km v fitted for a and b, gives a = b = 1 on consistent data, and the signs above for a flipped
