@@ -271,3 +271,12 @@ def test_values_beyond_what_the_suite_computes_with_are_refused(tmp_path, rows, 
         path = write(tmp_path / 'big.csv', changed)
     out = emla('identify', path, *args)
     refused(out, place, 'beyond the 1e+100')
+
+
+def test_import_of_data_before_time_zero_is_one_line(tmp_path, rows):
+    """A scope's pre-trigger samples (t < 0) identify, but a bag cannot stamp them."""
+    shifted = [[f'{float(row[0]) - 0.01:.10g}', *row[1:]] for row in rows]
+    path = write(tmp_path / 'pretrigger.csv', shifted)
+    assert load(path).start_time == pytest.approx(-0.01)
+    refused(emla('import', path, tmp_path / 'bag'), 'pretrigger.csv: the data run from t = -0.01 s')
+    assert not (tmp_path / 'bag').exists()
