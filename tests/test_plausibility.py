@@ -140,6 +140,12 @@ def test_compare_checks_the_data_against_the_model(clean, tmp_path, capsys):
         path = plain_csv(tmp_path / 'flipped.csv', changed(clean, indices, -1.0))
         (warning,) = warned(capsys, 'compare', path, '--model-file', model)
         assert flag in warning and warning.count('--units') == 1, (flipped, warning)
+    path = plain_csv(tmp_path / 'gain.csv', changed(clean, (2,), 10.0))    # a shunt's gain 10 times off
+    (warning,) = warned(capsys, 'compare', path, '--model-file', model)
+    assert 'the current reads 10 times what the model expects' in warning and '--units current=0.1' in warning
+    for change in ({'resistance': 1.26}, {'mass': 3.0}, {'emf_constant': 2.0}):   # a model that does not fit
+        mismatched = {k: v * change.get(k, 1.0) for k, v in TRUTH.items()}
+        assert plausibility_warnings(mismatched, {}, load(tmp_path / 'run.csv'), identified=False) == []
     # a current 30 times too large for its voltage and the model's R: no magnitude alone shows that
     t, voltage, current, position = changed(clean, (2,), 30.0)
     slipped = SimpleNamespace(signals={'voltage': voltage, 'current': current, 'position': position},

@@ -17,9 +17,14 @@ voltage drives through the coil's resistance (R I_peak <= U_peak but for back-EM
 known R (emla compare) a current too large points to a slip; with R identified from the data themselves (a
 slip keeps the ratio) to a voltage that is not the coil's.
 
-Data compared with a model (emla compare): the model's voltage balance on the measured signals, u = a (R I +
-L dI/dt) + b Km v fitted for a and b, gives a = b = 1 on consistent data, and the signs above for a flipped
-sensor: a = -1 for the current, b = -1 for the position, both for the voltage.
+Data compared with a model (emla compare): the model's balances on the measured signals, fitted as
+u = a (R I + L dI/dt) + b Km v and Km I = c (m dv/dt + B v) + const, give a = b = c = 1 on consistent data.
+A signal read k times its value (k = 1000: mA, mV or mm; k = -1: flipped) gives
+  current    a = 1/k, b = 1, c = k
+  voltage    a = b = k, c = 1
+  position   a = 1, b = c = 1/k
+so the force constant the force balance implies agreeing with the voltage balance's (c = b/a) tells a single
+misread signal from a model that does not fit (or a time slip), and the pattern names it and its factor.
 """
 from dataclasses import dataclass
 
@@ -39,12 +44,20 @@ MIN_FORCE_CONSTANT = 0.1    # metres (a position c times too large divides m by 
 MIN_RESISTANCE = 1e-3       # ohm: (a voltage too small divides R, Km and m alike)
 MAX_MASS = 1e4              # kg: above this beside an L/R above MAX_TIME_CONSTANT, the time is not in seconds
 PEAK_PERCENTILE = 99.9      # of |signal|, taken as its peak: one glitch does not count
-MIN_BALANCE = 0.25          # |a|, |b| of the voltage balance against a model from which their signs count
+BALANCE_TOLERANCE = 1.5     # a model's balances on data agree with one misread signal to within this factor
+BALANCE_FACTOR = 2.0        # and name it when it is misread by more than this factor (or flipped)
 
 SI_UNITS = {'t': 's', 'voltage': 'V', 'current': 'A', 'position': 'm', 'force': 'N'}
 PREFIXES = {1e-3: 'm', 1e-6: 'u'}
 # (sign of R and L, of Km, of m) each negated signal gives; see the module doc
 SIGN_PATTERNS = {'current': (-1, 1, -1), 'position': (1, -1, 1), 'voltage': (-1, -1, -1)}
+# (a, b, c) of a model's balances on data (module doc) with one signal read k times its value: (the estimates of
+# k from them, (a, b, c) as a function of k)
+BALANCE_HYPOTHESES = {
+    'current': (lambda a, b, c: (1 / a, c), lambda k: (1 / k, 1.0, k)),
+    'voltage': (lambda a, b, c: (a, b), lambda k: (k, k, 1.0)),
+    'position': (lambda a, b, c: (1 / b, 1 / c), lambda k: (1.0, 1 / k, 1 / k)),
+}
 SIGN_CAUSES = {'current': 'against the voltage and the force', 'position': 'against the force of the current',
                'voltage': 'against the current and the back-EMF', 'force': 'against the position'}
 UNITS = {'resistance': 'ohm', 'inductance': 'H', 'emf_constant': 'N/A', 'mass': 'kg', 'damping': 'N s/m',
@@ -113,9 +126,13 @@ def plausibility_warnings(parameters, std, recording, identified=True):
     magnitudes = Magnitudes.of(recording)
     inputs = getattr(recording, 'inputs', None) or {}
     shown = parameters if identified else {}
-    found = [_signs(parameters, std, recording.signals, inputs), _coil_voltage(parameters, magnitudes)] \
-        if identified else [_against_model(parameters, recording.signals, recording.sample_period, inputs)]
-    found += [check(parameters, magnitudes, inputs, shown) for check in (_current, _voltage, _position, _time)]
+    if identified:
+        found, named = [_signs(parameters, std, recording.signals, inputs), _coil_voltage(parameters, magnitudes)], ()
+    else:
+        against = _against_model(parameters, recording.signals, recording.sample_period, inputs)
+        found, named = ([against[1]], (against[0],)) if against else ([], ())
+    found += [check(parameters, magnitudes, inputs, shown) for signal, check in UNIT_CHECKS.items()
+              if signal not in named]
     return [message for message in found if message]
 
 
@@ -175,23 +192,61 @@ def _signs(parameters, std, signals, inputs):
             f'does not determine them (does it excite the actuator?)')
 
 
-def _against_model(parameters, signals, sample_period, inputs):
-    """The signal a model's voltage balance says runs the other way round in these data (module doc), or None."""
+def _balances(parameters, signals, sample_period):
+    """(a, b, c) of the model's balances on the measured signals, fitted: u = a (R I + L dI/dt) + b Km v and
+    Km I = c (m dv/dt + B v) + a constant; None without a coil model or coil signals."""
     names = ('voltage', 'current', 'position')
-    if any(n not in parameters for n in ('resistance', 'inductance', 'emf_constant')) or \
-            any(n not in signals for n in names) or len(signals['position']) < 2:
+    if any(n not in parameters for n in ('resistance', 'inductance', 'emf_constant', 'mass', 'damping')) or \
+            any(n not in signals for n in names) or len(signals['position']) < 3:
         return None
     voltage, current, position = (np.asarray(signals[n], dtype=float) for n in names)
+    velocity = np.gradient(position, sample_period)
     coil = parameters['resistance'] * current + parameters['inductance'] * np.gradient(current, sample_period)
-    emf = parameters['emf_constant'] * np.gradient(position, sample_period)
+    force = parameters['mass'] * np.gradient(velocity, sample_period) + parameters['damping'] * velocity
     with np.errstate(all='ignore'):
-        (a, b), *_ = np.linalg.lstsq(np.column_stack((coil, emf)), voltage, rcond=None)
-    if not min(abs(a), abs(b)) >= MIN_BALANCE:
+        (a, b), *_ = np.linalg.lstsq(np.column_stack((coil, parameters['emf_constant'] * velocity)), voltage,
+                                     rcond=None)
+        (c, _), *_ = np.linalg.lstsq(np.column_stack((force, np.ones_like(force))),
+                                     parameters['emf_constant'] * current, rcond=None)
+    return (a, b, c) if np.all(np.isfinite((a, b, c))) else None
+
+
+def _misread_signal(a, b, c):
+    """(signal, k): the one signal whose reading k times its true value explains the balances (a, b, c) to
+    within BALANCE_TOLERANCE (module doc), or None."""
+    best = None
+    for signal, (estimates, predicted) in BALANCE_HYPOTHESES.items():
+        guesses = np.array(estimates(a, b, c))
+        if not (np.all(guesses > 0) or np.all(guesses < 0)):
+            continue
+        k = np.sign(guesses[0]) * np.exp(np.mean(np.log(np.abs(guesses))))
+        expected = np.array(predicted(k))
+        if np.any(np.sign(expected) != np.sign((a, b, c))):
+            continue
+        error = np.max(np.abs(np.log(np.abs((a, b, c)) / np.abs(expected))))
+        if error <= np.log(BALANCE_TOLERANCE) and (best is None or error < best[0]):
+            best = (error, signal, k)
+    return None if best is None else best[1:]
+
+
+def _against_model(parameters, signals, sample_period, inputs):
+    """(signal, warning) for a signal the model's balances say is misread by a factor beyond BALANCE_FACTOR or
+    flipped, or None."""
+    balances = _balances(parameters, signals, sample_period)
+    found = None if balances is None else _misread_signal(*balances)
+    if found is None:
         return None
-    signal = next((s for s, pattern in SIGN_PATTERNS.items() if pattern[:2] == (np.sign(a), np.sign(b))), None)
-    return None if signal is None else (
-        f'the measured voltage is {a:.2g} times the model\'s R I + L dI/dt and {b:.2g} times its back-EMF Km v: '
-        f'the {signal} runs the other way round ({SIGN_CAUSES[signal]}); flip it with {unit_flag(inputs, signal, -1)}')
+    signal, k = found
+    if 1 / BALANCE_FACTOR <= k <= BALANCE_FACTOR:
+        return None
+    decade = 10.0 ** np.round(np.log10(abs(k)))
+    k = np.sign(k) * decade if abs(abs(k) / decade - 1) < 0.1 else k   # a unit's factor, not a fitted one
+    how = (f'runs the other way round, {SIGN_CAUSES[signal]}' if k == -1 else
+           f'reads {k:.4g} times what the model expects')
+    a, b, c = balances
+    return signal, (f'against the model, the {signal} {how}: its voltage balance on the data is u = {a:.3g} (R I + '
+                    f'L dI/dt) {"+" if b >= 0 else "-"} {abs(b):.3g} Km v, its force balance Km I = {c:.3g} (m dv/dt '
+                    f'+ B v); give the {signal}\'s unit with {unit_flag(inputs, signal, 1 / k)}')
 
 
 def _resistive_voltage(parameters, magnitudes):
@@ -282,3 +337,6 @@ def _time(parameters, magnitudes, inputs, shown):
     if tau is not None:   # identified: stretched with the time axis; from a model: the coil's own
         what += f', its L/R {tau:.3g} s' if shown else f' whose L/R is {tau:.3g} s'
     return _slip('t', what, inputs, factor, shown, names) + ' (or --sample-period in s)'
+
+
+UNIT_CHECKS = {'current': _current, 'voltage': _voltage, 'position': _position, 't': _time}
