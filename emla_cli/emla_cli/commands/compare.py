@@ -24,10 +24,11 @@ own measured inputs and every sample is predicted from the measured state a hori
 Fit (%) = 100 (1 - |y - yhat| / |y - mean y|) and NRMSE = |y - yhat| / |y - mean y| per signal. With two
 --model-file the two models are compared side by side on the same data (the nominal and the augmented
 model: the gap shrinking). The JSON goes to stdout unless --json is given; --plot draws measured against
-predicted over the stretch where they differ most. Data that look read in the wrong units (a current in
-mA, a voltage in mV, a time in ms, a position in mm: their magnitudes, and the current against what the
-model's resistance lets the voltage drive) are warned about on stderr with the flag that fixes it, as is a
-figure that cannot be computed (null in the JSON); both are listed under "warnings".
+predicted over the stretch where they differ most. A signal the data seem to read in another unit or sign
+than the model expects (the model's voltage and force balances on the data name it and its factor: a current
+in mA, a flipped position, a shunt's gain; a time in ms from the sample period) is warned about on stderr with
+the flag that fixes it, as is a figure that cannot be computed (null in the JSON); both are listed under
+"warnings".
 
 """ + DATA_HELP
 
