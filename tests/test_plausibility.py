@@ -258,3 +258,12 @@ def test_a_voltage_that_cannot_drive_the_current_is_not_taken_for_a_unit_slip(cl
     assert 'is the voltage the one across the coil' in warning and '--units' not in warning
     status, _, err = run(capsys, 'discrepancy', plain_csv(tmp_path / 'none.csv', (t, voltage, 0 * current, position)))
     assert status == 2 and err.count('\n') == 1 and 'no finite estimate' in err and 'nan' not in err
+
+
+def test_a_negative_damping_alone_is_no_sign_slip():
+    """No flipped signal makes B < 0 alone (a sensor delay the model lacks does): no --units advice."""
+    parameters = dict(TRUTH, damping=-8.0)
+    record_ = SimpleNamespace(signals={'position': np.array([0.0, 2e-3])}, sample_period=1e-4)
+    (warning,) = plausibility_warnings(parameters, {'damping': 0.1}, record_)
+    assert 'damping -8 N s/m is negative beyond its uncertainty' in warning and '--units' not in warning
+    assert plausibility_warnings(parameters, {'damping': 5.0}, record_) == []     # within 3 sigma of zero

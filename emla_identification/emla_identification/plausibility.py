@@ -172,6 +172,9 @@ def _signs(parameters, std, signals, inputs):
     if not negative:
         return None
     listed = ', '.join(f'{n} {parameters[n]:.4g} {UNITS[n]}' for n in negative)
+    if negative == ['damping']:   # no flipped signal makes B < 0 alone
+        return (f'{listed} is negative beyond its uncertainty: an effect the model lacks (a sensor delay, a '
+                f'friction; emla discrepancy looks for it) or too little motion to resolve it')
     if 'force' in signals:   # m dv/dt = F - B v - Fl: a negated force and a negated position look the same
         return (f'{listed} must be positive: the force runs {SIGN_CAUSES["force"]}; flip one of them with '
                 f'{unit_flag(inputs, "force", -1)} or {unit_flag(inputs, "position", -1)}')
