@@ -236,7 +236,8 @@ def _against_model(parameters, signals, sample_period, inputs):
     """(signal, warning) for a signal the model's balances say is misread by a factor beyond BALANCE_FACTOR or
     flipped, or None."""
     balances = _balances(parameters, signals, sample_period)
-    found = None if balances is None else _misread_signal(*balances)
+    with np.errstate(all='ignore'):   # a balance of 0 has no single-signal explanation
+        found = None if balances is None else _misread_signal(*balances)
     if found is None:
         return None
     signal, k = found
