@@ -56,6 +56,13 @@ def identify_chunks(chunks, model=None, forgetting=1.0, *, initial_covariance=1e
     if first is None:
         raise ValueError('identify_chunks needs at least one part of the record')
     model, kinds, lam = checks.setup(first, model, forgetting)
+    checks.check_magnitudes(first)
+    with checks.numerical_failures(first.source, f'the {model} model cannot be identified'):
+        return _identified(first, chunks, model, kinds, lam, initial_covariance, points, progress)
+
+
+def _identified(first, chunks, model, kinds, lam, initial_covariance, points, progress):
+    """identify_chunks on checked settings: the first part, then the others from the iterator `chunks`."""
     stream = RowStream(kinds, first.sample_period)
     regressions = {kind: _Regression(kind, lam, initial_covariance) for kind in kinds}
     snapshots, ends, stride, parts = [], [], 1, 0
