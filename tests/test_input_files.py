@@ -194,6 +194,11 @@ def test_matlab_v5_headers_of_either_byte_order(tmp_path, order, mark):
     path.write_bytes(header + v5_vector(order, 't', [0.0, 1e-3, 2e-3]) + v5_vector(order, 'voltage', [3, 4, 5]))
     assert tables.mat_vectors(path) == {'t': 3, 'voltage': 3}
     np.testing.assert_array_equal(load(path).signals['voltage'], [3, 4, 5])
+    damaged = bytearray(path.read_bytes())
+    damaged[128 + 48 + (1 if order == '<' else 2)] ^= 2    # the real part's data type: 9 (double) -> 521
+    path.write_bytes(damaged)
+    with pytest.raises(InputError, match='damaged variable at byte 128'):   # scipy would crash on it
+        load(path)
 
 
 def test_a_matlab_v73_file_reads_only_the_datasets_used(tmp_path, monkeypatch):
@@ -211,6 +216,9 @@ def test_a_matlab_v73_file_reads_only_the_datasets_used(tmp_path, monkeypatch):
     recording = load(path)
     assert sorted(read) == ['/current', '/position', '/time', '/voltage']
     np.testing.assert_array_equal(recording.signals['voltage'], np.sin(k))
+    path.write_bytes(path.read_bytes()[:3000])
+    with pytest.raises(InputError, match='not a readable MATLAB v7.3 file'):
+        load(path)
 
 
 def test_matlab_limits_and_damage_are_one_line(scope, tmp_path, monkeypatch):

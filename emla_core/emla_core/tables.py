@@ -9,6 +9,7 @@ their headers and only those asked for are loaded.
 """
 import csv
 import io
+import math
 import re
 import struct
 import sys
@@ -262,12 +263,22 @@ def read_mat_columns(path, names=None):
                          f'--columns')
     load = {'hdf5': _hdf5_load, 'v5': _v5_load, 'v4': _v4_load}[version]
     loaded = load(path, {name: vectors[name][1] for name in names})
-    columns = {name: np.asarray(loaded[name], dtype=float).reshape(-1) for name in names}
-    for name, values in columns.items():
-        bad = ~np.isfinite(values)
-        if bad.any():
-            raise InputError(f'{path}: non-finite value in variable {name} at element {int(np.argmax(bad)) + 1}')
-    return columns
+    return {name: _vector(path, name, loaded.get(name)) for name in names}
+
+
+def _vector(path, name, value):
+    """The variable `name` as a finite float vector; a damaged file whose data do not match its header
+    (as a flipped bit makes) as one line."""
+    try:
+        values = np.asarray(value, dtype=float).reshape(-1)     # None (not loaded) gives one NaN
+    except (TypeError, ValueError):
+        values = np.empty(0)
+    if values.size < 2:
+        raise InputError(f'{path}: variable {name} is not the numeric vector its header says: a damaged file')
+    bad = ~np.isfinite(values)
+    if bad.any():
+        raise InputError(f'{path}: non-finite value in variable {name} at element {int(np.argmax(bad)) + 1}')
+    return values
 
 
 def _vectors(path):
@@ -299,7 +310,8 @@ def _vectors(path):
 _MI_MATRIX, _MI_COMPRESSED = 14, 15
 _MX_CLASSES = {6: 'double', 7: 'single', 8: 'int8', 9: 'uint8', 10: 'int16', 11: 'uint16', 12: 'int32',
                13: 'uint32', 14: 'int64', 15: 'uint64', 4: 'char', 1: 'cell', 2: 'struct', 5: 'sparse'}
-_V5_HEADER_BYTES = 4096    # of a variable's element: enough for its flags, dimensions and name
+_MI_SIZES = {1: 1, 2: 1, 3: 2, 4: 2, 5: 4, 6: 4, 7: 4, 9: 8, 12: 8, 13: 8}   # bytes of the numeric data types
+_V5_HEADER_BYTES = 4096    # of a variable's element: enough for its flags, dimensions, name and data tag
 
 
 def _v5_listing(path):
@@ -329,18 +341,38 @@ def _v5_listing(path):
 
 def _v5_header(body, order):
     """(name, shape, class) of a miMATRIX element that starts `body`: its array flags, dimensions and name
-    subelements (the name maybe in the 'small data element' form of names up to 4 characters)."""
+    subelements. Of a numeric variable, the real part's size must be what the dimensions say (scipy's reader
+    crashes on a type or size that a flipped bit made).
+
+    Raises
+    ------
+    struct.error
+        The header is cut short or inconsistent.
+    """
     flags = struct.unpack_from(order + 'I', body, 16)[0]
     kind = ('complex' if flags & 0x800 else 'logical' if flags & 0x200
             else _MX_CLASSES.get(flags & 0xFF, 'other'))
-    dims_bytes = struct.unpack_from(order + 'I', body, 28)[0]
-    shape = struct.unpack_from(f'{order}{dims_bytes // 4}i', body, 32)
-    at = 32 + (dims_bytes + 7) // 8 * 8
-    word = struct.unpack_from(order + 'I', body, at)[0]
-    length, at = (word >> 16, at + 4) if word >> 16 else (struct.unpack_from(order + 'I', body, at + 4)[0], at + 8)
+    _, dims_bytes, at, after = _v5_tag(body, 24, order)
+    shape = struct.unpack_from(f'{order}{dims_bytes // 4}i', body, at)
+    _, length, at, after = _v5_tag(body, after, order)
     if at + length > len(body):
         raise struct.error('name beyond the header')
+    if kind in NUMERIC_CLASSES:
+        data_type, count, data_at, _ = _v5_tag(body, after, order)
+        element_end = 8 + struct.unpack_from(order + 'I', body, 4)[0]
+        if count != _MI_SIZES.get(data_type, -1) * math.prod(shape) or data_at + count > element_end:
+            raise struct.error('real part of another size than the dimensions say')
     return body[at:at + length].decode('latin-1'), shape, kind
+
+
+def _v5_tag(body, at, order):
+    """(data type, byte count, offset of the data, offset of the next subelement) of the subelement whose tag
+    is at `at`, in the full form or the 'small data element' one (up to 4 bytes of data inside the tag)."""
+    word = struct.unpack_from(order + 'I', body, at)[0]
+    if word >> 16:
+        return word & 0xFFFF, word >> 16, at + 4, at + 8
+    count = struct.unpack_from(order + 'I', body, at + 4)[0]
+    return word, count, at + 8, at + 8 + (count + 7) // 8 * 8
 
 
 def _v5_load(path, spans):
@@ -377,23 +409,27 @@ def _scipy_call(path, read):
 
 
 def _hdf5_listing(path):
-    """[(name, shape, MATLAB class, None)] of the datasets at the top of a v7.3 file; the class from the
-    MATLAB_class attribute, else from the dtype (files written by other HDF5 tools)."""
+    """[(name, shape, MATLAB class, key)] of the datasets at the top of a v7.3 file; the class from the
+    MATLAB_class attribute, else from the dtype (files written by other HDF5 tools); the key as h5py gives
+    it (bytes where the name is not UTF-8)."""
     def kind(dataset):
         matlab = dataset.attrs.get('MATLAB_class')
         if matlab is not None:
             return matlab.decode() if isinstance(matlab, bytes) else str(matlab)
         return 'double' if dataset.dtype.kind in 'iuf' else str(dataset.dtype)
-    return _hdf5_call(path, lambda f, h5py: [(name, f[name].shape, kind(f[name]), None) for name in f
-                                             if isinstance(f[name], h5py.Dataset)])
+    return _hdf5_call(path, lambda f, h5py: [
+        (key.decode('latin-1') if isinstance(key, bytes) else key, f[key].shape, kind(f[key]), key)
+        for key in f if isinstance(f[key], h5py.Dataset)])
 
 
-def _hdf5_load(path, names):
-    return _hdf5_call(path, lambda f, h5py: {name: f[name][()] for name in names})
+def _hdf5_load(path, keys):
+    """{name: array} of the datasets `keys` {name: key}."""
+    return _hdf5_call(path, lambda f, h5py: {name: f[key][()] for name, key in keys.items()})
 
 
 def _hdf5_call(path, read):
-    """read(open h5py.File, h5py module), with h5py missing or the file unreadable as one line."""
+    """read(open h5py.File, h5py module), with h5py missing or the file unreadable (HDF5 reports damage
+    as any of several exceptions) as one line."""
     try:
         import h5py
     except ImportError:
@@ -401,5 +437,5 @@ def _hdf5_call(path, read):
     try:
         with h5py.File(path, 'r') as f:
             return read(f, h5py)
-    except OSError as exc:
+    except (OSError, RuntimeError, KeyError, ValueError, TypeError) as exc:   # UnicodeDecodeError too
         raise InputError(f'{path}: not a readable MATLAB v7.3 file: {" ".join(str(exc).split())}') from None
