@@ -101,7 +101,7 @@ def test_two_effects_are_named_in_turn():
     assert result['missing_effect'] == 'coulomb_friction'     # explains more of its equation's error
     first, second = result['effects']
     assert (first['effect'], second['effect']) == ('coulomb_friction', 'resistance_drift')
-    assert result['added_parameters']['coulomb_force'] == pytest.approx(effects[1].force, rel=0.05)
+    assert result['added_parameters']['coulomb_force'] == pytest.approx(effects[1].coulomb_force, rel=0.05)
     assert second['gap_after']['current'] < 0.5 * first['gap_after']['current']
     assert result['verdict'] == 'explained'
 

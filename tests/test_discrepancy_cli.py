@@ -19,7 +19,7 @@ from emla_core.bag import write_recording
 from emla_core.data import load
 from emla_core.recording import Recording, write_csv
 from emla_sim.datasets import closed_loop
-from emla_core.physics import CoulombFriction
+from emla_core.physics import EFFECTS, CoulombFriction
 
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLE = REPO / 'bags' / 'example_discrepancy'
@@ -34,7 +34,7 @@ def example_recording():
 def write_example(path):
     """The example bag at `path` (must not exist or be empty)."""
     write_recording(example_recording(), path, custom_data={
-        'hidden_effect': HIDDEN.name, 'hidden_coulomb_force': HIDDEN.force,
+        'hidden_effect': HIDDEN.name, 'hidden_coulomb_force': HIDDEN.coulomb_force,
         'generator': 'tests/test_discrepancy_cli.py'})
 
 
@@ -62,8 +62,7 @@ def test_cli_on_the_example_bag(tmp_path):
     for candidate in result['candidates']:
         assert set(candidate) == {'effect', 'score', 'significant', 'evidence'}
     names = {c['effect'] for c in result['candidates']}
-    assert names == {'coulomb_friction', 'return_spring', 'resistance_drift', 'inductance_saturation',
-                     'force_constant_variation', 'sensor_delay', 'drive_voltage_error'}
+    assert names == set(EFFECTS)   # every effect of the physics layer is a candidate
     report = tmp_path / 'report'
     text = (report / 'report.md').read_text()
     for figure in ('gap.png', 'residuals.png', 'correlation.png', 'disagreement.png'):
