@@ -17,9 +17,9 @@ Find what the actuator model is missing: name the effect, add it, show the gap s
 
 Fits the nominal model (u = R I + L dI/dt + Km v, m dv/dt = Km I - B v - Fl) to DATA, predicts each
 subsystem from its measured inputs (current 5 L/R ahead, position 10 ms ahead), and ranks the candidate
-effects by the share of the held-out prediction error each removes:
-  coulomb_friction, return_spring, resistance_drift, inductance_saturation, force_constant_variation,
-  sensor_delay, and any you add from Python with register_candidate.
+effects by the share of the held-out prediction error each removes: every effect of the physics layer
+(emla_core.physics; their forms and parameters are in docs/physics.md sections 6 and 7) and any you add
+from Python with register_candidate.
 The best one is named only when it is significant; it is added, the model re-identified and the gap
 (NRMSE per signal) reported before and after; then a second effect is looked for. Nominal estimates that
 point to a slip in units or signs (a current in mA, a time in ms, a sensor mounted the other way) are

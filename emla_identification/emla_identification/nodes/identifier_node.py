@@ -49,9 +49,9 @@ SPECS = [
     common.Spec('measured_frames', False, 'take the measured frames of each period in one message on /emla/frames '
                                           '(as `emla launch` runs it) instead of /emla/{voltage,current,position}'),
     common.Spec('effects', Parameter.Type.STRING_ARRAY,
-                'grey box: effects estimated online with the nominal parameters, published on /emla/effects: '
-                'coulomb_friction, return_spring (resistance_drift: followed by the memory; see '
-                'emla_identification.online_effects for why others cannot run online)'),
+                'grey box: effects estimated online with the nominal parameters, published on /emla/effects: those '
+                'of the physics layer with an online column, or followed by the memory (docs/physics.md section 6; '
+                'an effect that cannot run online is refused with its reason)'),
     common.Spec('model_file', '', 'grey box: a model file (emla discrepancy --model-out) whose effects to estimate '
                                   'online, as `effects` (which adds to them)'),
     common.Spec('publish_period', topics.ESTIMATE_PERIOD,
