@@ -7,7 +7,6 @@ import pytest
 from mcap.writer import Writer
 
 from emla_cli.cli import main
-from emla_cli.commands import identify as identify_command
 from emla_core.bag import BagWriter, iter_chunks, read_bag, typestore, write_recording
 from emla_core.errors import InputError
 from emla_core.messages import frame_message, serialize
@@ -243,7 +242,7 @@ def test_emla_identify_streams_a_long_record_to_the_same_answer(run_bag, monkeyp
     short_csv, short_bag = identify_json(run_bag / 'run.csv'), identify_json(run_bag / 'bag')
     assert short_bag == short_csv  # under LONG_SAMPLES: the whole-record path, unchanged
     streamed = []
-    monkeypatch.setattr(identify_command, 'LONG_SAMPLES', 1000)
+    monkeypatch.setattr(streaming, 'LONG_SAMPLES', 1000)
     monkeypatch.setattr(streaming, 'identify_chunks',
                         lambda *a, **k: streamed.append(1) or identify_chunks(*a, **k))
     for path in (run_bag / 'bag', run_bag / 'run.csv'):

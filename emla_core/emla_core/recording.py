@@ -38,6 +38,17 @@ class Recording:
     def has(self, *names):
         return all(n in self.signals for n in names)
 
+    def truth(self, names):
+        """{name: value} of the true parameters a simulated run carries in its metadata (`true_<name>`), of
+        those of `names` it has."""
+        out = {}
+        for name in names:
+            try:
+                out[name] = float(self.metadata[f'true_{name}'])
+            except (KeyError, TypeError, ValueError):
+                pass
+        return out
+
     def require(self, *names):
         missing = [n for n in names if n not in self.signals]
         if missing:

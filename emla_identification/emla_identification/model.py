@@ -62,6 +62,38 @@ def _candidate(effect, source):
     return CANDIDATES[effect.candidate]()
 
 
+def identified_structure(structure, recording, data, command, source='model file'):
+    """A model file's structure identified on `recording`, as `emla identify --model-file` reports it.
+
+    Parameters
+    ----------
+    structure : emla_core.model_file.Model
+        The model whose nominal parameters and effects are identified (their values are not used).
+    recording : Recording
+        The data.
+    data, command : str
+        Where the data came from and the command line, for the new model's provenance.
+    source : str, optional
+        The model file's name, for messages.
+
+    Returns
+    -------
+    tuple
+        (result dict for the JSON: model, samples, sample_period, parameters, std, effects; the identified
+        emla_core.model_file.Model).
+    """
+    final = identify_model(structure, recording, source)
+    names = [e.effect for e in structure.effects]
+    identified = from_fit(final, names, data, command)
+    result = {'model': 'full', 'samples': len(recording), 'sample_period': recording.sample_period,
+              'parameters': {k: v for k, (v, _) in identified.parameters.items()},
+              'std': {k: s for k, (_, s) in identified.parameters.items()},
+              'effects': [{'effect': name, 'parameters': {p: v for p, (v, _) in effect.parameters.items()},
+                           'std': {p: s for p, (_, s) in effect.parameters.items()}}
+                          for name, effect in zip(names, identified.effects, strict=True)]}
+    return result, identified
+
+
 def identify_model(model, recording, source='model file'):
     """The model's structure (nominal + its effects) identified on `recording`: the joint Fit, each effect's
     variant (a delay, a time constant) searched again on these data."""

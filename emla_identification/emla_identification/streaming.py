@@ -17,6 +17,55 @@ from .moments import RowMoments
 from .regressors import COLUMNS, HISTORY, INSTRUMENTED, RowStream
 
 CHUNK_SAMPLES = 1 << 14  # samples whose rows are formed at a time: they stay in cache
+LONG_SAMPLES = 1 << 20   # from here on a record is identified part by part (bounded memory)
+
+
+def read_record(path, load, *, plain=True, long_samples=None):
+    """A record as identify_chunks or greybox.identify takes it, read in bounded memory when it is long.
+
+    Parameters
+    ----------
+    path : str or Path
+        The data: a file or bag directory.
+    load : callable
+        load(path) -> Recording, the whole record (with the caller's mapping of columns and units).
+    plain : bool, optional
+        The data need no mapping (no columns, units or topics given): a bag of the suite's own layout is then
+        read in parts as it goes, never held whole.
+    long_samples : int, optional
+        Records of this many samples or more are identified part by part (default LONG_SAMPLES).
+
+    Returns
+    -------
+    tuple
+        (the Recording, None) when it is shorter than `long_samples`, else (it or its first part, an iterator
+        over its consecutive parts).
+    """
+    from pathlib import Path
+
+    from emla_core.bag import iter_chunks
+    from emla_core.bag.foreign import suite_layout
+    path = Path(path)
+    long_samples = LONG_SAMPLES if long_samples is None else long_samples
+    if not plain or not suite_layout(path):
+        recording = load(path)
+        return recording, None if len(recording) < long_samples else split(recording)
+    parts = iter_chunks(path)
+    head, samples = [], 0
+    for part in parts:
+        head.append(part)
+        samples += len(part)
+        if samples >= long_samples:
+            return head[0], itertools.chain(_handed_over(head), parts)
+    first = head[0]  # iter_chunks yields at least one part
+    whole = {name: np.concatenate([part.signals[name] for part in head]) for name in first.signals}
+    return Recording(first.sample_period, whole, first.start_time, first.source, first.metadata), None
+
+
+def _handed_over(parts):
+    """The parts of a list, each removed from it as it is yielded (so the list does not keep them alive)."""
+    while parts:
+        yield parts.pop(0)
 
 
 class _Regression:

@@ -15,15 +15,13 @@ whole-record ones to rounding.
 The JSON goes to stdout unless --json is given. A bag written by the suite may carry the true parameters
 (custom metadata true_resistance, ...); --plot then draws them next to the estimates.
 """
-import itertools
 import sys
 from pathlib import Path
-
-import numpy as np
 
 from emla_core.bag.report import read_warnings
 from emla_core.errors import InputError
 from emla_identification.plausibility import plausibility_warnings
+from emla_identification.streaming import read_record
 
 from .inputs import DATA_HELP, add_data_arguments, foreign, load_data, understood, unknown_figures, warn
 from .numbers import add_number
@@ -59,7 +57,6 @@ the exit status stays 0.
 """ + DATA_HELP
 MODELS = ('electrical', 'mechanical', 'full', 'arx')
 PROGRESS_MIN_SAMPLES = 200_000  # smaller inputs finish too fast for a progress bar
-LONG_SAMPLES = 1 << 20          # from here on a record is identified part by part (bounded memory)
 
 
 def add_arguments(parser):
@@ -103,7 +100,7 @@ def run(args):
             recording = load_data(args)
             result, plot, identified = _with_effects(structure, recording, args)
         else:
-            recording, parts = _record(args)
+            recording, parts = read_record(args.data, lambda path: load_data(args), plain=not foreign(args))
             result, plot, identified = _greybox(recording, parts, model, _memory(args, forgetting, recording), args)
     found = [] if model == 'arx' else plausibility_warnings(result['parameters'], result['std'], recording)
     found += unknown_figures(result)
@@ -166,18 +163,10 @@ def _command_line():
 
 def _with_effects(structure, recording, args):
     """(JSON, plot, Model) of a model file's structure with effects identified on `recording`."""
-    from emla_identification.model import from_fit, identify_model
+    from emla_identification.model import identified_structure
     if args.memory_time is not None or args.forgetting != 1.0 or args.plot:
         raise InputError('--forgetting, --memory-time and --plot apply to models without effects')
-    final = identify_model(structure, recording, args.model_file)
-    names = [e.effect for e in structure.effects]
-    identified = from_fit(final, names, args.data, _command_line())
-    result = {'model': 'full', 'samples': len(recording), 'sample_period': recording.sample_period,
-              'parameters': {k: v for k, (v, _) in identified.parameters.items()},
-              'std': {k: s for k, (_, s) in identified.parameters.items()},
-              'effects': [{'effect': name, 'parameters': {p: v for p, (v, _) in effect.parameters.items()},
-                           'std': {p: s for p, (_, s) in effect.parameters.items()}}
-                          for name, effect in zip(names, identified.effects)]}
+    result, identified = identified_structure(structure, recording, args.data, _command_line(), args.model_file)
     return result, None, identified
 
 
@@ -196,12 +185,7 @@ def _greybox(recording, parts, model, forgetting, args):
                   disable=not sys.stderr.isatty()) as bar:
             result = identify_chunks(parts, model, forgetting, points=200 if args.plot else 1,
                                      progress=lambda samples: bar.update(samples - bar.n))
-    truth = {}
-    for name in result.parameters:
-        try:
-            truth[name] = float(recording.metadata[f'true_{name}'])
-        except (KeyError, TypeError, ValueError):
-            pass
+    truth = recording.truth(result.parameters)
     trajectory = result.trajectory
     title = f'{Path(recording.source).name}: {result.model} model'
     identified = None
@@ -209,35 +193,6 @@ def _greybox(recording, parts, model, forgetting, args):
         from emla_identification.model import from_greybox
         identified = from_greybox(result, args.data, _command_line())
     return result.to_dict(), (trajectory.time, trajectory.parameters, trajectory.std, truth, title), identified
-
-
-def _record(args):
-    """(the Recording, None) when it is shorter than LONG_SAMPLES, else (it or its first part, its consecutive
-    parts). A bag of the suite's own layout is read in parts as it goes; other data are read whole."""
-    from emla_core.bag import iter_chunks
-    from emla_core.bag.foreign import suite_layout
-    from emla_core.recording import Recording
-    from emla_identification.streaming import split
-    path = Path(args.data)
-    if foreign(args) or not suite_layout(path):
-        recording = load_data(args)
-        return recording, None if len(recording) < LONG_SAMPLES else split(recording)
-    parts = iter_chunks(path)
-    head, samples = [], 0
-    for part in parts:
-        head.append(part)
-        samples += len(part)
-        if samples >= LONG_SAMPLES:
-            return head[0], itertools.chain(_handed_over(head), parts)
-    first = head[0]  # iter_chunks yields at least one part
-    whole = {name: np.concatenate([part.signals[name] for part in head]) for name in first.signals}
-    return Recording(first.sample_period, whole, first.start_time, first.source, first.metadata), None
-
-
-def _handed_over(parts):
-    """The parts of a list, each removed from it as it is yielded (so the list does not keep them alive)."""
-    while parts:
-        yield parts.pop(0)
 
 
 def _arx(recording, orders, forgetting, args):
