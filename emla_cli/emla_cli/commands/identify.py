@@ -1,20 +1,9 @@
-"""Identify actuator parameters (grey-box) or an ARX model from a CSV file or a bag.
+"""`emla identify`: parses the options and calls the identification (grey box: emla_identification.greybox,
+part by part for long records: streaming; ARX: arx; a model file's structure: model). The user's help is
+description().
 
-Grey-box models (SI units): electrical (R, L, Km from u = R I + L dI/dt + Km v), mechanical (m, B, Fl from
-m dv/dt = F - B v - Fl with F a measured force column, else Km I with Km from the electrical equation) and
-full (all six, Km shared). Velocity is derived from position. Default: full for voltage/current/position
-data, mechanical for force/position data.
-
-ARX: y(t) + a1 y(t-1) + ... = b1 u(t-nk) + ... by RLS from theta = 0, P = 1e6 I. Default input voltage,
-output current, orders 2 2 1 (the exact structure of the coil current's response to the voltage).
-
-Records of 2^20 samples (105 s at 10 kHz) or more are identified part by part, in bounded memory: a bag is
-then never held whole (a CSV file still is: reading it in parts is not worth it); the estimates equal the
-whole-record ones to rounding.
-
-The JSON goes to stdout unless --json is given. A bag written by the suite may carry the true parameters
-(custom metadata true_resistance, ...); --plot then draws them next to the estimates.
-"""
+Records of 2^20 samples or more are identified part by part, in bounded memory: a bag is then never held whole
+(streaming.read_record); the estimates equal the whole-record ones to rounding."""
 import sys
 from pathlib import Path
 

@@ -1,11 +1,5 @@
-"""Run a closed-loop adaptive-control comparison (nominal / changed fixed / changed adaptive).
-
-Scenarios: resistance_rise (R +50 %), mass_rise (m +50 %), thermal_drift (R rising with coil temperature over
-many 40 ms cycles), and default (the Table 1 actuator under adaptive control alone; its one case is
-"adaptive"). Prints {"scenario": NAME, "cases": {case: {rms_tracking_error, max_overshoot, settling_time,
-peak_current}}} (SI units) or writes it with --json; --plot draws the position, tracking error and current of
-each case over the last cycle, as the EMLA paper's Figures 6-7.
-"""
+"""`emla scenario`: a closed-loop adaptive-control comparison of emla_bench.scenarios, its JSON and plot (the
+user's help is description())."""
 import textwrap
 
 from .output import add_force_argument, check_outputs, emit_json
