@@ -95,7 +95,7 @@ def _law(c, r0, r1, r2, r3, current, x, v):
     """(limited voltage, acceleration, jerk) of the interval starting at the state (current, x, v): the voltage,
     the acceleration at the start and the jerk the limited voltage gives. r0..r3 = reference s, s', s'', s'''
     at the interval midpoint."""
-    a = (c[KM] * current - c[B] * v - c[FL] - effect_force(c, x, v)) / c[M]
+    a = _derivatives(c, current, x, v, 0.0)[2]   # the force balance (the voltage does not enter it)
     h = 0.5 * c[TS]
     w = (r3 + c[K2] * (r2 - a) + c[K1] * (r1 - v - h * a) + c[K0] * (r0 - x - h * v - 0.5 * h * h * a)) \
         / (1.0 + c[K2] * h + 0.5 * c[K1] * h * h + c[K0] * h * h * h / 6.0)
