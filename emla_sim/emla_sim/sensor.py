@@ -101,7 +101,7 @@ class Sensor:
             current += cfg.current_noise_std * self._current_noise.draw()
         if cfg.position_noise_std:
             position += cfg.position_noise_std * self._position_noise.draw()
-        if cfg.position_resolution:
+        if cfg.position_resolution and math.isfinite(position):   # a non-finite one as it is, as measure() does
             position = math.floor(position / cfg.position_resolution + 0.5) * cfg.position_resolution
         return current, position
 

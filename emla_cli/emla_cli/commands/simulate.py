@@ -13,6 +13,8 @@ the same samples.
 import sys
 import time
 
+from emla_core.errors import InputError
+
 from . import scenario_args
 from .output import BAG, check_outputs, replace_bag
 
@@ -95,16 +97,27 @@ def write_bag(result, path, scenario):
         bag.write_message(topics.DONE_TOPIC, end, time_msg(end))
 
 
-def run(args):
+def _simulate(scenario, duration, model_file):
+    """The LoopResult of the scenario's graph case over `duration` s; InputError when the actuator of the model
+    file `model_file` cannot be simulated (its state diverges: the plant refuses the non-finite voltage)."""
     from emla_core.topics import ESTIMATE_PERIOD
+    try:
+        # One sample more than the duration: the state the last voltage interval ends on is sampled too.
+        return scenario.run_case(scenario.graph_case, duration + scenario.sample_period,
+                                 frame_samples=round(ESTIMATE_PERIOD / scenario.sample_period))
+    except ValueError as exc:
+        if model_file is None:
+            raise
+        raise InputError(f'{model_file}: its actuator cannot be simulated at Ts = {scenario.sample_period:g} s, '
+                         f'the state diverges ({exc}); check its parameters') from None
 
+
+def run(args):
     check_outputs({}, [args.model_file], args.force, {'--bag': (args.bag, BAG)})
     scenario, duration = scenario_args.scenario_and_duration(args)
-    replace_bag(args.bag, args.force)
     started = time.monotonic()
-    # One sample more than the duration: the state the last voltage interval ends on is sampled too.
-    result = scenario.run_case(scenario.graph_case, duration + scenario.sample_period,
-                               frame_samples=round(ESTIMATE_PERIOD / scenario.sample_period))
+    result = _simulate(scenario, duration, args.model_file)
+    replace_bag(args.bag, args.force)   # only now: a run that fails leaves an earlier bag in place
     write_bag(result, args.bag, scenario.name)
     print(f'emla simulate: {scenario.name}, {duration:g} s ({len(result.recording) - 1} samples) in '
           f'{time.monotonic() - started:.1f} s; bag {args.bag}', file=sys.stderr)
