@@ -2,7 +2,7 @@
 and exit 2 before any work (some hung: `echo --timeout nan`, `play --rate 1e-9`); a params file with a typo (a
 parameter or a node name) is refused by the node, naming it and the closest known name; inputs that gave
 tracebacks (an import onto itself or /dev/null, a bad topic name, a deeply nested params file) are one line;
-a plant stopped before its duration exits non-zero, so a launcher learns it at once."""
+a launch whose plant is stopped fails at once (it waited a minute, then called the run stalled)."""
 import importlib
 import os
 import signal
@@ -13,6 +13,7 @@ import pytest
 import yaml
 from independent_data import EXAMPLES
 from ros_isolation import REPO, VENV_BIN, processes
+from test_launch import children
 
 from emla_cli import cli
 from emla_cli.launcher import SHM, remove_unused_shm, stale_shm_files
@@ -147,19 +148,24 @@ def test_a_params_file_with_a_typo_is_refused_in_one_line(tmp_path, text, messag
     assert code == 2 and err.count('\n') == 1 and message in err, err
 
 
-def test_a_plant_stopped_before_its_duration_exits_non_zero(tmp_path):
-    path = tmp_path / 'plant.yaml'
-    path.write_text(yaml.safe_dump({'/emla/plant': {'ros__parameters': {
-        'duration': 5.0, 'start_subscribers': 0, 'done_subscribers': 0}}}))
+def test_a_launch_whose_plant_is_stopped_fails_at_once(tmp_path):
+    """A plant stopped by a signal exits 0 (as every node); the launcher sees no done signal come and says so
+    within DONE_GRACE, where it waited STALL_TIMEOUT (60 s) and called the run stalled."""
+    bag = tmp_path / 'bag'
     with processes() as start:
-        plant = start([EMLA, 'run', 'plant', '--params-file', str(path)])
-        deadline = time.monotonic() + 60
-        while 'ready' not in (line := plant.stderr.readline()):
-            assert line and time.monotonic() < deadline, 'the plant did not start'
-        os.killpg(plant.pid, signal.SIGINT)
-        code = plant.wait(timeout=30)
-        err = plant.stderr.read()
-    assert code == 1 and 'stopped by a signal at t = 0 s, before the end of its duration (5 s)' in err, err
+        launch = start([EMLA, 'launch', '--duration', '60', '--bag', str(bag)])
+        deadline = time.monotonic() + 120
+        while not list(bag.glob('*.mcap')):          # the graph runs
+            assert launch.poll() is None and time.monotonic() < deadline, launch.communicate()[1]
+            time.sleep(0.1)
+        plant = next(pid for pid, args in children(launch.pid).items() if args[2:4] == ['run', 'plant'])
+        os.kill(plant, signal.SIGINT)
+        stopped = time.monotonic()
+        _, err = launch.communicate(timeout=60)
+    assert launch.returncode == 1 and time.monotonic() - stopped < 20
+    lines = [line for line in err.replace('\r', '\n').splitlines() if line.startswith('emla launch:')]
+    assert len(lines) == 1 and f'plant (pid {plant}) exited with status 0' in lines[0], err
+    assert 'it stopped before the end of the run' in lines[0]
 
 
 def test_a_dead_launch_s_shared_memory_files_go_at_the_next_start():

@@ -237,6 +237,7 @@ DONE_SUBSCRIBERS = 3         # of /emla/plant/done: identifier, recorder and the
                              # late by one announcement period would otherwise miss the whole run)
 STALL_TIMEOUT = 60.0         # s without simulated progress (start-up included) before the launch gives up
 FINAL_TIMEOUT = 30.0         # s from the done signal to the identifier's final estimate
+DONE_GRACE = 2.0             # s for the done signal of a plant that exited 0 to arrive; without it, it was stopped
 
 
 class LaunchError(Exception):
@@ -357,14 +358,20 @@ def launch(scenario, duration, bag, node_parameters):
 
 
 def _wait_for_final(graph, monitor, executor, bar):
-    """Spin the monitor until the final estimate came; LaunchError when a node dies or nothing moves."""
-    progress_at, reached = time.monotonic(), -1.0
+    """Spin the monitor until the final estimate came; LaunchError when a node dies, the plant leaves before its
+    end (stopped by a signal: status 0, but no done signal) or nothing moves."""
+    progress_at, reached, plant_left = time.monotonic(), -1.0, None
     while monitor.final() is None:
         executor.spin_once(timeout_sec=0.05)
+        now = time.monotonic()
         for node in graph.nodes:
             if not node.running() and not (node.name == 'plant' and node.popen.returncode == 0):
                 raise LaunchError(f'{node.describe_exit()}')
-        now = time.monotonic()
+        if monitor.done is None and not graph['plant'].running():
+            plant_left = plant_left or now
+            if now - plant_left > DONE_GRACE:
+                raise LaunchError(f'{graph["plant"].describe_exit()}; it stopped before the end of the run '
+                                  f'(at t = {monitor.now:.4f} s; stopped by a signal?)')
         if monitor.now > reached:
             progress_at, reached = now, monitor.now
             bar.update(round(reached - bar.n, 6))

@@ -1,7 +1,7 @@
 """Run one node of the suite in this process, as `ros2 run PACKAGE NODE` does on a full ROS 2 install.
 
 The node gets `--ros-args --params-file FILE` (a ROS 2 YAML params file; the defaults are in each package's
-config/NODE.yaml). SIGINT/SIGTERM stop it cleanly (exit status 0; a plant stopped before its duration: 1).
+config/NODE.yaml). SIGINT/SIGTERM stop it cleanly (exit status 0).
 """
 import re
 import signal
@@ -21,9 +21,9 @@ def description():
 Run one node of the suite in this process, as `ros2 run PACKAGE NODE` does on a full ROS 2 install.
 
 The node reads a ROS 2 YAML params file (--params-file; each package's config/NODE.yaml holds the
-defaults). SIGINT/SIGTERM stop it cleanly with exit status 0 (a plant stopped before its duration: 1); bad
-parameters or an invalid params file give one line and status 2, as does a section for no node of the suite
-or a parameter the node does not have (a typo: the line names the closest known name).
+defaults). SIGINT/SIGTERM stop it cleanly with exit status 0; bad parameters or an invalid params file give
+one line and status 2, as does a section for no node of the suite or a parameter the node does not have (a
+typo: the line names the closest known name).
 """
 
 

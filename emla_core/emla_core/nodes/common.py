@@ -90,9 +90,9 @@ header stamp, else its receive time), so the same faults are found and survived.
 Each node: parameters declared read-only with descriptors (range, units in the description), defaults in the
 package's config/<node>.yaml; once constructed (warmed up, subscribed) it says 'NAME: ready (its topics)' on
 stderr; SIGINT/SIGTERM end it cleanly with exit status 0 (after the acknowledgements of what it published, at
-most ACK_TIMEOUT; a plant stopped before its duration: status 1, see EmlaNode.interrupted); bad parameters (out
-of range, of another type, or not the node's: a params file's typo, see params_file) end it with one line on
-stderr and exit status 2, as does bad input found later (EmlaNode.fail: an input topic of a type it cannot read).
+most ACK_TIMEOUT); bad parameters (out of range, of another type, or not the node's: a params file's typo, see
+params_file) end it with one line on stderr and exit status 2, as does bad input found later (EmlaNode.fail: an
+input topic of a type it cannot read).
 """
 import collections
 import contextlib
@@ -559,11 +559,6 @@ class EmlaNode(Node):
         """Called once the spin loop of `run` ends: wait until readers acknowledged what was published."""
         wait_for_acknowledgements(self)
 
-    def interrupted(self):
-        """The exit status when SIGINT/SIGTERM stopped the node before it finished: 0 (a node that runs until
-        stopped); a node with work to finish says what was left on stderr and returns non-zero."""
-        return 0
-
 
 def wait_for_acknowledgements(node, timeout=ACK_TIMEOUT):
     """Wait (at most `timeout` s) until every reader acknowledged what `node` published: a reader that must
@@ -619,7 +614,7 @@ def run(node_class, args=None):
     if node.error:
         print(f'{node_class.NAME}: error: {node.error}', file=sys.stderr)
         return 2
-    return node.interrupted() if stopping and not node.finished else 0
+    return 0
 
 
 @contextlib.contextmanager

@@ -173,15 +173,6 @@ class PlantNode(common.EmlaNode):
             self.publish_truth()  # stopped early: the true frames held
         super().stop(executor)
 
-    def interrupted(self):
-        """Status 1 when stopped before its duration was run (a launcher then learns at once that no done
-        signal will come); 0 for a plant that runs until stopped."""
-        if self.periods is None:
-            return 0
-        print(f'{self.NAME}: stopped by a signal at t = {self.now * 1e-9:g} s, before the end of its duration '
-              f'({self.periods * self.samples_per_period * self.step * 1e-9:g} s)', file=sys.stderr)
-        return 1
-
     def finish(self):
         wall = time.monotonic() - self.wall_start
         self.done.publish(messages.time_msg(self.now))
