@@ -1,8 +1,10 @@
 """The house: package dependencies point one way, no import cycles, a public API a notebook user can find
 (docstrings, __all__, the README's example runs, docstring examples hold)."""
 import ast
+import dataclasses
 import doctest
 import importlib
+import inspect
 import re
 import subprocess
 import sys
@@ -131,6 +133,41 @@ def test_every_package_says_what_it_holds(package):
         value = getattr(module, name)
         if callable(value):
             assert value.__doc__, f'{package}.{name} has no docstring'
+
+
+# The packages (and the subpackages with an __all__ of their own) whose exports are the annotated public API.
+ANNOTATED = PACKAGES + ('emla_core.physics', 'emla_identification.discrepancy')
+
+
+def unannotated(function, returns):
+    """The parameters of `function` (not self/cls, *args, **kwargs) without an annotation, and 'return' if
+    `returns` and it has none."""
+    signature = inspect.signature(function)
+    missing = [p.name for p in signature.parameters.values()
+               if p.name not in ('self', 'cls') and p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)
+               and p.annotation is p.empty]
+    return missing + (['return'] if returns and signature.return_annotation is signature.empty else [])
+
+
+@pytest.mark.parametrize('package', ANNOTATED)
+def test_the_public_api_is_annotated(package):
+    module = importlib.import_module(package)
+    missing = {}
+    for name in module.__all__:
+        value = getattr(module, name)
+        if getattr(value, 'py_func', None) is not None:   # numba-compiled: left as it is
+            continue
+        if inspect.isclass(value):
+            if dataclasses.is_dataclass(value) or '__init__' not in vars(value):
+                continue   # a dataclass's __init__ is its annotated fields
+            gaps = unannotated(value.__init__, returns=False)
+        elif inspect.isfunction(value):
+            gaps = unannotated(value, returns=True)
+        else:
+            continue
+        if gaps:
+            missing[name] = gaps
+    assert missing == {}, f'{package}: exported without type hints: {missing}'
 
 
 def test_help_of_identify_explains_what_to_pass():

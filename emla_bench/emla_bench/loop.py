@@ -9,13 +9,22 @@ The per-sample work uses the plant's and sensor's public per-step APIs around th
 about 3 us a sample of CPU (30 times faster than real time at 10 kHz). The identifier's cost is mostly its
 estimate(), taken once a frame (about 2 ms now), hence frames of 50 ms: 16 times real time in all.
 """
+from __future__ import annotations
+
 import dataclasses
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from emla_core.parameters import PARAMETER_NAMES
 from emla_core.recording import Recording
 from emla_sim.sensor import Sensor
+
+if TYPE_CHECKING:
+    from emla_control.controller import InverseSystemController
+    from emla_identification.online import OnlineIdentifier
+    from emla_sim.plant import Plant
 
 FRAME_SAMPLES = 500  # 50 ms at 10 kHz: the identifier's and the parameter updates' rhythm
 
@@ -43,8 +52,10 @@ class LoopResult:
     rejected: int
 
 
-def run_closed_loop(plant, controller, reference, duration, *, sensor=None, identifier=None, adapt=True,
-                    frame_samples=FRAME_SAMPLES):
+def run_closed_loop(plant: Plant, controller: InverseSystemController,
+                    reference: Callable[[np.ndarray], Sequence[np.ndarray]], duration: float, *,
+                    sensor: Sensor | None = None, identifier: OnlineIdentifier | None = None, adapt: bool = True,
+                    frame_samples: int = FRAME_SAMPLES) -> LoopResult:
     """Run the loop from the plant's present state for `duration` s; returns a LoopResult.
 
     sensor: emla_sim Sensor (default: 10 kHz, 5 mA, 1 um, seed 0); its sample period is the loop's.

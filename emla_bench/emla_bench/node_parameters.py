@@ -3,10 +3,10 @@ import dataclasses
 
 from emla_core.errors import InputError
 
-from .scenarios import ONLINE_EFFECTS
+from .scenarios import ONLINE_EFFECTS, Scenario
 
 
-def scenario_parameters(scenario):
+def scenario_parameters(scenario: Scenario) -> dict[str, dict[str, object]]:
     """The node parameters that make the graph run a scenario's graph case.
 
     The control period stays the nodes' own (1 ms frames), as do the controller's gains tuned for it.

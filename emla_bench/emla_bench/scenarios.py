@@ -13,12 +13,15 @@ a few memory times to follow it (the response during that transient is in the ru
 import dataclasses
 import math
 import textwrap
+from collections.abc import Iterable, Mapping
+from typing import Self
 
 import numpy as np
 
 from emla_control.controller import ADAPTED_EFFECTS, DEFAULT_BANDWIDTH, DEFAULT_DAMPING, InverseSystemController
 from emla_control.reference import StrokeReference
 from emla_core.errors import InputError
+from emla_core.model_file import Model
 from emla_core.parameters import TABLE1, ActuatorParameters
 from emla_identification.online import OnlineIdentifier
 from emla_core.physics import CoulombFriction, ResistanceDrift, ReturnSpring
@@ -26,7 +29,7 @@ from emla_sim.effects import ParameterChange
 from emla_sim.plant import Plant
 from emla_sim.sensor import Sensor, SensorConfig
 
-from .loop import FRAME_SAMPLES, run_closed_loop
+from .loop import FRAME_SAMPLES, LoopResult, run_closed_loop
 
 # Case -> (plant changed, controller adapting).
 CASES = {
@@ -61,11 +64,11 @@ class Scenario:
     compensated: tuple = ()  # cases whose identifier estimates ONLINE_EFFECTS too, compensated by the controller
     controller_effects: dict = dataclasses.field(default_factory=dict)  # the model's, compensated in every case
 
-    def plant(self, changed=True):
+    def plant(self, changed: bool = True) -> Plant:
         return Plant(self.params, effects=self.model_effects + (self.effects if changed else ()),
                      changes=self.changes if changed else ())
 
-    def with_model(self, model, source='model file'):
+    def with_model(self, model: Model, source: str = 'model file') -> Self:
         """This scenario on the actuator of a model file (emla_core.model_file): its nominal parameters (the
         controller starts from them too) and its effects, simulated by the plant in every case; the controller
         compensates those effects it can (Effect.compensation)."""
@@ -76,26 +79,28 @@ class Scenario:
         return dataclasses.replace(self, params=params, model_effects=model.plant_effects(source),
                                    controller_effects=model.compensation())
 
-    def sensor(self):
+    def sensor(self) -> Sensor:
         return Sensor(SensorConfig(sample_period=self.sample_period, seed=self.seed))
 
-    def controller(self, effects=None, adapt_effects=False):
+    def controller(self, effects: Mapping[str, float] | None = None,
+                   adapt_effects: bool = False) -> InverseSystemController:
         return InverseSystemController(self.params, bandwidth=self.bandwidth, damping=self.damping,
                                        control_period=self.sample_period,
                                        supply_voltage=self.params.supply_voltage, effects=effects,
                                        adapt_effects=adapt_effects)
 
-    def identifier(self, effects=()):
+    def identifier(self, effects: Iterable[str] = ()) -> OnlineIdentifier:
         return OnlineIdentifier(self.sample_period, 'full', memory_time=self.memory_time, effects=effects)
 
     @property
-    def graph_case(self):
+    def graph_case(self) -> str:
         """The case the ROS graph (`emla launch`) and `emla simulate` run: the adaptive controller, on the
         changed plant if there is one, with the effects estimated online if a case has them."""
         adaptive = [case for case, (_, adapt) in self.cases.items() if adapt]
         return max(adaptive, key=lambda case: (self.cases[case][0], case in self.compensated))
 
-    def run_case(self, case, duration=None, frame_samples=None, effects=None):
+    def run_case(self, case: str, duration: float | None = None, frame_samples: int | None = None,
+                 effects: Mapping[str, float] | None = None) -> LoopResult:
         """The LoopResult of one case (a key of `cases`), over `duration` s (default: the scenario's), with the
         identifier and the adaptation every `frame_samples` samples (default: the scenario's), the controller
         compensating `effects` (InverseSystemController's) if given; a compensated case's controller also takes
@@ -172,7 +177,7 @@ def get(name):
     return SCENARIOS[name]
 
 
-def run_scenario(name_or_scenario, cases=None):
+def run_scenario(name_or_scenario: str | Scenario, cases: Iterable[str] | None = None) -> ScenarioResult:
     """Run the scenario's cases (all by default); a ScenarioResult with the metrics of each, and the final
     online estimates of the effects each compensated case compensates ({name: value, name_std: one-sigma})."""
     scenario = name_or_scenario if isinstance(name_or_scenario, Scenario) else get(name_or_scenario)
@@ -184,7 +189,8 @@ def run_scenario(name_or_scenario, cases=None):
     return ScenarioResult(scenario, runs, metrics, compensated)
 
 
-def tracking_metrics(result, reference, start=0.0, end=None):
+def tracking_metrics(result: LoopResult, reference: StrokeReference, start: float = 0.0,
+                     end: float | None = None) -> dict[str, float]:
     """The contract's metrics of a LoopResult over the whole cycles within [start, end] (s), from true signals.
 
     rms_tracking_error: RMS of true position - reference (m). max_overshoot: the largest excursion past the

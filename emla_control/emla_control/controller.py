@@ -7,8 +7,10 @@ supply voltage winds nothing up.
 """
 import collections
 import math
+from collections.abc import Mapping, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from emla_core.parameters import PARAMETER_NAMES, ActuatorParameters
 
@@ -44,9 +46,11 @@ class InverseSystemController:
     the total at x = 0: the spring's centre is then 0).
     """
 
-    def __init__(self, params, *, bandwidth=DEFAULT_BANDWIDTH, damping=DEFAULT_DAMPING, control_period=1e-4,
-                 supply_voltage=24.0, observer_bandwidth=DEFAULT_OBSERVER_BANDWIDTH,
-                 min_samples=DEFAULT_MIN_SAMPLES, max_jump=DEFAULT_MAX_JUMP, effects=None, adapt_effects=False):
+    def __init__(self, params: ActuatorParameters, *, bandwidth: float = DEFAULT_BANDWIDTH,
+                 damping: float = DEFAULT_DAMPING, control_period: float = 1e-4, supply_voltage: float = 24.0,
+                 observer_bandwidth: float = DEFAULT_OBSERVER_BANDWIDTH, min_samples: int = DEFAULT_MIN_SAMPLES,
+                 max_jump: float = DEFAULT_MAX_JUMP, effects: Mapping[str, float] | None = None,
+                 adapt_effects: bool = False) -> None:
         if not (math.isfinite(control_period) and control_period > 0.0):
             raise ValueError(f'control_period must be positive, got {control_period!r}')
         if not (math.isfinite(supply_voltage) and supply_voltage > 0.0):
@@ -71,7 +75,7 @@ class InverseSystemController:
         self.accepted = 0
         self.rejections = collections.Counter()  # reason -> count
 
-    def set_effects(self, effects):
+    def set_effects(self, effects: Mapping[str, float]) -> None:
         """Compensate the model's effects {'coulomb_force', 'spring_stiffness', 'spring_center'} (missing: 0)."""
         unknown = sorted(set(effects) - set(EFFECTS))
         if unknown:
@@ -82,34 +86,34 @@ class InverseSystemController:
             self._c[slot] = float(effects.get(name, 0.0))
 
     @property
-    def effects(self):
+    def effects(self) -> dict[str, float]:
         """The effects the law compensates now, {'coulomb_force', 'spring_stiffness', 'spring_center'}."""
         return {name: float(self._c[slot]) for name, slot in EFFECTS.items()}
 
     @property
-    def parameters(self):
+    def parameters(self) -> ActuatorParameters:
         """The model the law uses now, as ActuatorParameters."""
         return ActuatorParameters(**self._params, supply_voltage=self.supply_voltage)
 
     @property
-    def rejected(self):
+    def rejected(self) -> int:
         return sum(self.rejections.values())
 
-    def reset(self, position=0.0):
+    def reset(self, position: float = 0.0) -> None:
         """Start the observer at rest at `position` (and step_ahead with 0 V held)."""
         self._z[:] = (position, 0.0)
         self._held = 0.0
 
-    def midpoint_times(self, times):
+    def midpoint_times(self, times: ArrayLike) -> np.ndarray:
         """Where to evaluate the reference for control intervals starting at `times`."""
         return np.asarray(times, dtype=float) + 0.5 * self.control_period
 
-    def step(self, current, position, reference):
+    def step(self, current: float, position: float, reference: Sequence[float]) -> float:
         """The voltage for the coming interval; reference = (s, s', s'', s''') at its midpoint."""
         r0, r1, r2, r3 = reference
         return inverse.control_step(self._z, self._c, r0, r1, r2, r3, current, position)
 
-    def start_ahead(self, current, position, reference):
+    def start_ahead(self, current: float, position: float, reference: Sequence[float]) -> float:
         """Start a run of step_ahead at its first sample: reset there, and return the voltage for the interval
         that sample starts, the law's without delay (as if computed before the run); step_ahead then goes on
         from the same sample. reference = (s, s', s'', s''') at that interval's midpoint."""
@@ -118,7 +122,7 @@ class InverseSystemController:
         self._held = inverse.law_voltage(self._z, self._c, r0, r1, r2, r3, current, position)
         return self._held
 
-    def step_ahead(self, current, position, reference):
+    def step_ahead(self, current: float, position: float, reference: Sequence[float]) -> float:
         """The voltage for the interval after the coming one, from the sample at the coming one's start: one
         control period of computational delay, as a controller has that computes while the plant runs. The
         coming interval's voltage is the one step_ahead returned last (0 V after reset); the state at its end
@@ -129,7 +133,7 @@ class InverseSystemController:
                                                   self._prediction_steps)
         return self._held
 
-    def update_parameters(self, estimate, samples=None):
+    def update_parameters(self, estimate: Mapping[str, float], samples: int | None = None) -> bool:
         """Take identified parameters (a mapping with some of PARAMETER_NAMES) unless implausible.
 
         Rejected, keeping the previous ones: fewer than `min_samples` behind the estimate, non-finite values,

@@ -55,7 +55,7 @@ def inverse_voltage(resistance, inductance, emf_constant, mass, damping, load_fo
     return resistance * current + inductance * current_rate + emf_constant * velocity
 
 
-def feedback_gains(bandwidth, damping):
+def feedback_gains(bandwidth: float, damping: float) -> tuple[float, float, float]:
     """(k0, k1, k2) placing the closed-loop poles at (s + wb)(s^2 + 2 zeta wb s + wb^2), wb = 2 pi bandwidth."""
     if not (math.isfinite(bandwidth) and bandwidth > 0.0):
         raise ValueError(f'bandwidth must be positive (Hz), got {bandwidth!r}')
@@ -65,7 +65,7 @@ def feedback_gains(bandwidth, damping):
     return wb ** 3, (1.0 + 2.0 * damping) * wb ** 2, (1.0 + 2.0 * damping) * wb
 
 
-def observer_gains(bandwidth, sample_period):
+def observer_gains(bandwidth: float, sample_period: float) -> tuple[float, float]:
     """(l1, l2) of the position/velocity observer with both error poles at z = exp(-2 pi bandwidth Ts).
 
     Predictor x+ = x + Ts v + ..., v+ = v + Ts a + ..., corrector x += l1 e, v += l2 e (e = measured - x):

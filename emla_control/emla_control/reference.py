@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 from numpy.polynomial import polynomial as P
+from numpy.typing import ArrayLike
 
 _STEP = np.array([0.0, 0.0, 0.0, 0.0, 35.0, -84.0, 70.0, -20.0])
 _STEP_DERIVATIVES = [_STEP] + [P.polyder(_STEP, k) for k in (1, 2, 3)]
@@ -43,7 +44,7 @@ class StrokeReference:
             raise ValueError(f'StrokeReference.transition ({self.transition} s) must fit in half a period '
                              f'({self.period / 2} s)')
 
-    def __call__(self, t):
+    def __call__(self, t: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(s, s', s'', s''') at the times t (array or scalar), each an array of t's shape."""
         t = np.asarray(t, dtype=float)
         phase = np.mod(t, self.period)
@@ -57,7 +58,7 @@ class StrokeReference:
             out.append(np.where(falling, self.stroke, 0.0) + sign * value if order == 0 else sign * value)
         return tuple(out)
 
-    def moves(self, duration):
+    def moves(self, duration: float) -> list[Move]:
         """The moves that start and hold completely within [0, duration], in time order."""
         half = self.period / 2
         moves = []

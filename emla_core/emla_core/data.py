@@ -25,7 +25,8 @@ BAG_SUFFIXES = ('.mcap', '.db3')
 MAX_MAGNITUDE = 1e100
 
 
-def load(path, *, columns=None, units=None, topics=None, sample_period=None, delimiter=None, decimal=None):
+def load(path: Path | str, *, columns: str | None = None, units: str | None = None, topics: str | None = None,
+         sample_period: float | None = None, delimiter: str | None = None, decimal: str | None = None) -> Recording:
     """A Recording of the data in a CSV file, MATLAB file, rosbag2 directory or .mcap file.
 
     Parameters
@@ -83,7 +84,8 @@ def load(path, *, columns=None, units=None, topics=None, sample_period=None, del
                     decimal=decimal)
 
 
-def read_csv(path, *, columns=None, units=None, sample_period=None, delimiter=None, decimal=None):
+def read_csv(path: Path | str, *, columns: str | None = None, units: str | None = None,
+             sample_period: float | None = None, delimiter: str | None = None, decimal: str | None = None) -> Recording:
     """A Recording from a CSV file with a header row (see `load` for the mapping, units and CSV dialect)."""
     from emla_core.tables import read_csv_columns
     return from_columns(read_csv_columns(path, delimiter, decimal), str(path), columns=columns, units=units,

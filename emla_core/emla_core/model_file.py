@@ -17,16 +17,22 @@ YAML, SI units:
         settings: {presliding_displacement: 2.7e-06, rigid_sticking: true}
     provenance: {data: bags/run, date: '2026-11-23T02:00:00Z', command: emla discrepancy ..., version: 0.1.0}
 """
+from __future__ import annotations
+
 import dataclasses
 import datetime
 import math
 import os
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import yaml
 
 from emla_core.errors import InputError
 from emla_core.parameters import PARAMETER_BOUNDS, PARAMETER_NAMES
+
+if TYPE_CHECKING:
+    from emla_core.physics import Effect
 
 FORMAT = 1
 
@@ -38,7 +44,7 @@ class ModelEffect:
     parameters: dict     # {name: (value, std)}
     settings: dict = dataclasses.field(default_factory=dict)
 
-    def values(self):
+    def values(self) -> dict[str, float]:
         return {k: v for k, (v, _) in self.parameters.items()}
 
 
@@ -50,11 +56,11 @@ class Model:
     effects: list = dataclasses.field(default_factory=list)
     provenance: dict = dataclasses.field(default_factory=dict)
 
-    def values(self):
+    def values(self) -> dict[str, float]:
         """{name: value} of the nominal parameters."""
         return {k: v for k, (v, _) in self.parameters.items()}
 
-    def plant_effects(self, source='model file'):
+    def plant_effects(self, source: str = 'model file') -> tuple[Effect, ...]:
         """The physics layer's effects of this model, for the plant; InputError naming one it cannot simulate."""
         from emla_core.physics import EFFECTS
         out = []
@@ -69,14 +75,14 @@ class Model:
                 raise InputError(f'{source}: {exc}') from None
         return tuple(out)
 
-    def compensation(self):
+    def compensation(self) -> dict[str, float]:
         """{law coefficient: value} of the effects the inverse law compensates (Effect.compensation)."""
         out = {}
         for effect in self.plant_effects():
             out.update(effect.compensation())
         return out
 
-    def to_yaml(self):
+    def to_yaml(self) -> str:
         def pair(value, std):
             return {'value': float(value), 'std': None if std is None or not math.isfinite(std) else float(std)}
         return yaml.safe_dump({
@@ -97,7 +103,7 @@ def _plain(value):
     return str(value)
 
 
-def provenance(data, command):
+def provenance(data: Path | str, command: str) -> dict[str, str]:
     """Where a model came from: the data, the time, the command line, the suite's version."""
     from importlib.metadata import PackageNotFoundError, version
     try:
@@ -108,7 +114,7 @@ def provenance(data, command):
             'command': command, 'version': suite}
 
 
-def write(model, path):
+def write(model: Model, path: Path | str) -> None:
     """Write `model` to `path` (complete or not at all)."""
     path = Path(path)
     temporary = path.with_name(f'.{path.name}.{os.getpid()}')
@@ -120,7 +126,7 @@ def write(model, path):
         raise InputError(f'{path}: cannot write: {exc.strerror or exc}') from None
 
 
-def read(path):
+def read(path: Path | str) -> Model:
     """The Model in a model file, or InputError naming the file and what is wrong with it."""
     path = Path(path)
     try:

@@ -3,6 +3,8 @@
     electrical:  u = R I + L dI/dt + Km v
     mechanical:  m dv/dt = Km I - B v - Fl,   dx/dt = v
 """
+from __future__ import annotations
+
 import dataclasses
 import math
 import numbers
@@ -42,16 +44,16 @@ class ActuatorParameters:
         if self.damping < 0.0:
             raise ValueError(f'ActuatorParameters.damping must be >= 0, got {self.damping!r}')
 
-    def physical(self):
+    def physical(self) -> dict[str, float]:
         """The six physical parameters as {name: value} (PARAMETER_NAMES order)."""
         return {name: getattr(self, name) for name in PARAMETER_NAMES}
 
-    def replace(self, **values):
+    def replace(self, **values: float) -> ActuatorParameters:
         """A copy with some fields set to new values."""
         self._check_names(values)
         return dataclasses.replace(self, **values)
 
-    def scaled(self, **factors):
+    def scaled(self, **factors: float) -> ActuatorParameters:
         """A copy with some fields multiplied by factors, e.g. scaled(resistance=1.5)."""
         self._check_names(factors)
         return dataclasses.replace(self, **{name: getattr(self, name) * f for name, f in factors.items()})

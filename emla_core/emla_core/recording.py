@@ -1,5 +1,7 @@
 """Uniformly sampled recordings of an actuator run (reading them: emla_core.data)."""
+from collections.abc import Iterable
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -32,13 +34,13 @@ class Recording:
         return len(next(iter(self.signals.values()))) if self.signals else 0
 
     @property
-    def time(self):
+    def time(self) -> np.ndarray:
         return self.start_time + self.sample_period * np.arange(len(self))
 
-    def has(self, *names):
+    def has(self, *names: str) -> bool:
         return all(n in self.signals for n in names)
 
-    def truth(self, names):
+    def truth(self, names: Iterable[str]) -> dict[str, float]:
         """{name: value} of the true parameters a simulated run carries in its metadata (`true_<name>`), of
         those of `names` it has."""
         out = {}
@@ -49,14 +51,14 @@ class Recording:
                 pass
         return out
 
-    def require(self, *names):
+    def require(self, *names: str) -> None:
         missing = [n for n in names if n not in self.signals]
         if missing:
             raise InputError(f'{self.source or "recording"}: missing column(s) {", ".join(missing)} '
                              f'(has {", ".join(self.signals) or "none"})')
 
 
-def write_csv(recording, path, columns=None):
+def write_csv(recording: Recording, path: Path | str, columns: Iterable[str] | None = None) -> None:
     """Write `columns` (default: all signals) with a leading `t` column."""
     columns = list(columns or recording.signals)
     table = np.column_stack([recording.time] + [recording.signals[c] for c in columns])

@@ -11,8 +11,10 @@ the current (the exact structure of the coil current's response to the held volt
 """
 
 from dataclasses import dataclass
+from typing import Self
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .rls import RecursiveLeastSquares
 
@@ -79,34 +81,34 @@ class ArxModel:
     mse: float = float('nan')
 
     @classmethod
-    def from_theta(cls, theta, na, nb, nk, **fields):
+    def from_theta(cls, theta: ArrayLike, na: int, nb: int, nk: int, **fields: float) -> Self:
         theta = np.asarray(theta, dtype=float)
         return cls(a=np.concatenate(([1.0], theta[:na])), b=theta[na:na + nb].copy(), nk=nk, **fields)
 
     @property
-    def orders(self):
+    def orders(self) -> tuple[int, int, int]:
         return len(self.a) - 1, len(self.b), self.nk
 
     @property
-    def theta(self):
+    def theta(self) -> np.ndarray:
         return np.concatenate((self.a[1:], self.b))
 
     @property
-    def poles(self):
+    def poles(self) -> np.ndarray:
         """Roots of z^na + a1 z^(na-1) + ... + a_na (the delay's poles at the origin are not included)."""
         return np.roots(self.a)
 
     @property
-    def zeros(self):
+    def zeros(self) -> np.ndarray:
         """Roots of B as a polynomial, b1 z^(nb-1) + ... + b_nb."""
         return np.roots(self.b) if len(self.b) else np.empty(0, dtype=complex)
 
-    def predict(self, u, y):
+    def predict(self, u: ArrayLike, y: ArrayLike) -> np.ndarray:
         """One-step-ahead predictions, aligned with arx_regressors(u, y, ...)[1]."""
         Phi, _ = arx_regressors(u, y, *self.orders)
         return Phi @ self.theta
 
-    def to_dict(self):
+    def to_dict(self) -> dict:
         """The `emla identify --model arx` JSON object."""
         def pairs(roots):
             return [[float(z.real), float(z.imag)] for z in roots]
@@ -115,7 +117,8 @@ class ArxModel:
                 'zeros': pairs(self.zeros), 'fit_percent': self.fit_percent, 'mse': self.mse}
 
 
-def identify_arx(u, y, na, nb, nk, forgetting=1.0, initial_covariance=1e6):
+def identify_arx(u: ArrayLike, y: ArrayLike, na: int, nb: int, nk: int, forgetting: float = 1.0,
+                 initial_covariance: float = 1e6) -> ArxModel:
     """Identify a black-box ARX model A(q) y(t) = B(q) u(t - nk) by recursive least squares over a record.
 
     y(t) + a1 y(t-1) + ... + a_na y(t-na) = b1 u(t-nk) + ... + b_nb u(t-nk-nb+1); the recursion starts from
@@ -184,25 +187,25 @@ class ArxEstimator:
     beyond RESCALE_BEYOND, this does not): the same theta, and the fit and MSE of the latest
     theta over every row used, from the rows' mean and scatter (to rounding; ill-conditioned rows cost digits)."""
 
-    def __init__(self, na, nb, nk, **rls_options):
+    def __init__(self, na: int, nb: int, nk: int, **rls_options: object) -> None:
         self._orders = _check_orders(na, nb, nk)
         self.rls = RecursiveLeastSquares(na + nb, **rls_options)
         self._lag = _history(*self._orders)
         self.reset()
 
-    def reset(self):
+    def reset(self) -> None:
         self.rls.reset()
         self._rows = 0  # used so far; their mean z and scatter sum (z - mean)(z - mean)', z = [phi, y]
         self._mean = np.zeros(self.rls.n + 1)
         self._scatter = np.zeros((self.rls.n + 1,) * 2)
         self.gap()
 
-    def gap(self):
+    def gap(self) -> None:
         """Samples were lost: the next frame does not follow on from the last one, and no row will span the gap
         (the estimate is kept)."""
         self._u = self._y = np.empty(0)
 
-    def update(self, u, y):
+    def update(self, u: ArrayLike, y: ArrayLike) -> np.ndarray:
         """Feed one frame; returns its a-priori prediction errors (NaN while the history is incomplete, and
         where a non-finite sample makes the recursion skip the row)."""
         u = np.concatenate((self._u, np.asarray(u, dtype=float).reshape(-1)))
@@ -228,7 +231,7 @@ class ArxEstimator:
         self._rows = rows
 
     @property
-    def model(self):
+    def model(self) -> ArxModel:
         theta = self.rls.theta
         if not self._rows:
             return ArxModel.from_theta(theta, *self._orders, forgetting=self.rls.forgetting)

@@ -12,12 +12,16 @@ signal peaks lie more than RESCALE_BEYOND from typical ones (checks.TYPICAL) is 
 powers of two (exact), and its parameters are scaled back by their dimensions.
 """
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from emla_core.data import as_recording
 from emla_core.errors import InputError
+from emla_core.recording import Recording
 
 from . import offline
 from .checks import TYPICAL, check_excitation, checked, numerical_failures
@@ -48,14 +52,17 @@ class GreyBoxResult:
     forgetting: float
     trajectory: Trajectory = field(repr=False, default=None)
 
-    def to_dict(self):
+    def to_dict(self) -> dict:
         """The `emla identify` JSON object."""
         return {'model': self.model, 'samples': self.samples, 'sample_period': self.sample_period,
                 'parameters': dict(self.parameters), 'std': dict(self.std)}
 
 
-def identify(data=None, model=None, forgetting=1.0, *, memory_time=None, sample_period=None, voltage=None,
-             current=None, position=None, force=None, initial_covariance=1e6, points=200, progress=None):
+def identify(data: Recording | Path | str | None = None, model: str | None = None, forgetting: float = 1.0, *,
+             memory_time: float | None = None, sample_period: float | None = None, voltage: ArrayLike | None = None,
+             current: ArrayLike | None = None, position: ArrayLike | None = None, force: ArrayLike | None = None,
+             initial_covariance: float = 1e6, points: int = 200,
+             progress: Callable[[float], object] | None = None) -> GreyBoxResult:
     """Identify the physical parameters of an actuator from a whole record of its signals.
 
     The grey-box model is u = R I + L dI/dt + Km v (electrical) and m dv/dt = Km I - B v - Fl (mechanical),

@@ -11,15 +11,23 @@ Effects (a list of names and/or a model file's Model): those linear in their par
 with the nominal ones, as extra columns of the mechanical regression (online_effects.py, which says which
 can and which cannot); their parameters follow the nominal ones in estimate() and values().
 """
+from __future__ import annotations
+
 import math
+from collections.abc import Iterable, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .moments import RowMoments
 from .online_effects import EffectColumns, columns_for
 from .physical import physical, physical_values
 from .regressors import COLUMNS, INSTRUMENTED, SIGNALS, RowStream, regressions_for
 from .rls import RecursiveLeastSquares, forgetting_factor
+
+if TYPE_CHECKING:
+    from emla_core.model_file import Model, ModelEffect
 
 
 class OnlineIdentifier:
@@ -34,8 +42,10 @@ class OnlineIdentifier:
     names those that cannot be.
     """
 
-    def __init__(self, sample_period, model='full', *, forgetting=None, memory_time=None,
-                 initial_covariance=1e6, signals=SIGNALS['electrical'], effects=()):
+    def __init__(self, sample_period: float, model: str = 'full', *, forgetting: float | None = None,
+                 memory_time: float | None = None, initial_covariance: float = 1e6,
+                 signals: Iterable[str] = SIGNALS['electrical'],
+                 effects: str | Iterable[str | ModelEffect] | Model = ()) -> None:
         if not 0.0 < sample_period < math.inf:
             raise ValueError(f'sample period must be positive and finite, got {sample_period!r}')
         self.sample_period = float(sample_period)
@@ -55,11 +65,11 @@ class OnlineIdentifier:
         self.reset()
 
     @property
-    def effects(self):
+    def effects(self) -> tuple[str, ...]:
         """The parameters of the effects estimated online (e.g. ('coulomb_force', 'spring_stiffness'))."""
         return () if self._effects is None else tuple(c.parameter for c in self._effects.columns)
 
-    def reset(self):
+    def reset(self) -> None:
         """Forget everything: back to the prior, no samples."""
         for rls in self._rls.values():
             rls.reset()
@@ -72,7 +82,7 @@ class OnlineIdentifier:
             self._effects.restart()
         self._residual_rms = math.nan
 
-    def gap(self):
+    def gap(self) -> None:
         """Samples were lost: the next frame does not follow on from the last one, and no row will span the
         gap. The estimates and their statistics are kept (the noise model's lagged moments pair the few rows
         either side as neighbours: negligible among thousands)."""
@@ -80,7 +90,8 @@ class OnlineIdentifier:
         if self._effects:
             self._effects.restart()
 
-    def update(self, voltage=None, current=None, position=None, *, force=None):
+    def update(self, voltage: ArrayLike | None = None, current: ArrayLike | None = None,
+               position: ArrayLike | None = None, *, force: ArrayLike | None = None) -> None:
         """Feed one frame (1-D arrays of equal length of the identifier's signals); see gap() when it does not
         follow on from the last one."""
         given = {'voltage': voltage, 'current': current, 'position': position, 'force': force}
@@ -107,27 +118,27 @@ class OnlineIdentifier:
         return np.hstack((phi, columns)), y if stuck is None else np.where(stuck, np.nan, y)
 
     @property
-    def samples(self):
+    def samples(self) -> int:
         """Samples fed since the last reset."""
         return self._stream.samples
 
     @property
-    def residual_rms(self):
+    def residual_rms(self) -> float:
         """RMS a-priori error of the voltage equation over the last frame (V); NaN without coil signals."""
         return self._residual_rms
 
-    def estimate(self):
+    def estimate(self) -> tuple[dict[str, float], dict[str, float]]:
         """({name: value}, {name: one-sigma}) of the model's parameters; NaN before enough excitation."""
         values, std, _ = self.full_estimate()
         return values, std
 
-    def full_estimate(self):
+    def full_estimate(self) -> tuple[dict[str, float], dict[str, float], tuple[Sequence[str], np.ndarray]]:
         """estimate() and (names, covariance matrix) of the parameters, from one evaluation of the noise model."""
         names, values, covariance = physical(self.model, self._statistics(), self.sample_period)
         return (dict(zip(names, values.tolist())), dict(zip(names, np.sqrt(np.diag(covariance)).tolist())),
                 (names, covariance))
 
-    def values(self):
+    def values(self) -> dict[str, float]:
         """{name: value} as estimate() gives them, without the uncertainties' noise model (for per-frame use)."""
         names, values = physical_values(self.model, self._statistics(), self.sample_period)
         return dict(zip(names, values.tolist()))

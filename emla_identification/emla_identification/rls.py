@@ -39,6 +39,7 @@ import math
 
 import numba
 import numpy as np
+from numpy.typing import ArrayLike
 
 MIN_MEMORY = 2.0   # samples: the shortest memory 1 / (1 - lambda) a forgetting factor may have
 
@@ -168,8 +169,9 @@ class RecursiveLeastSquares:
     Non-finite samples are skipped: their prediction error is NaN and the state is left unchanged.
     """
 
-    def __init__(self, n, *, forgetting=1.0, memory_time=None, sample_period=None,
-                 initial_covariance=1e6, initial_theta=None, windup_limit=None):
+    def __init__(self, n: int, *, forgetting: float = 1.0, memory_time: float | None = None,
+                 sample_period: float | None = None, initial_covariance: float = 1e6,
+                 initial_theta: ArrayLike | None = None, windup_limit: float | None = None) -> None:
         self._n = check_order(n)
         self._lam = forgetting_factor(forgetting, memory_time, sample_period)
         self._theta0, self._P0 = prior(self._n, initial_covariance, initial_theta)
@@ -183,20 +185,20 @@ class RecursiveLeastSquares:
         self._one_e = np.empty(1)
         self.reset()
 
-    def reset(self):
+    def reset(self) -> None:
         """Back to the prior (theta0, P0) with no samples seen; frozen/enabled is kept."""
         self._theta = self._theta0.copy()
         self._P = self._P0.copy()
         self._stats = np.zeros(3)
 
-    def freeze(self):
+    def freeze(self) -> None:
         """Stop adapting: theta and P stay, prediction errors are still computed."""
         self._enabled = False
 
-    def enable(self):
+    def enable(self) -> None:
         self._enabled = True
 
-    def update(self, phi, y):
+    def update(self, phi: ArrayLike, y: float) -> float:
         """One sample; returns the a-priori prediction error y - phi' theta."""
         if np.shape(phi) != (self._n,):
             raise ValueError(f'regressor must have {self._n} entries, got shape {np.shape(phi)}')
@@ -205,7 +207,7 @@ class RecursiveLeastSquares:
         self._run(self._one_phi, self._one_y, self._one_e)
         return float(self._one_e[0])
 
-    def update_block(self, Phi, Y, instruments=None):
+    def update_block(self, Phi: ArrayLike, Y: ArrayLike, instruments: ArrayLike | None = None) -> np.ndarray:
         """The same recursion over the rows of Phi (N x n) and Y (N,); returns the N a-priori errors.
 
         instruments: None, or an N x n array of instruments (instrumental variables, see the module doc)."""
@@ -219,49 +221,49 @@ class RecursiveLeastSquares:
                     self._lam, self._limit, self._enabled, errors)
 
     @property
-    def n(self):
+    def n(self) -> int:
         return self._n
 
     @property
-    def forgetting(self):
+    def forgetting(self) -> float:
         return self._lam
 
     @property
-    def windup_limit(self):
+    def windup_limit(self) -> float:
         return self._limit
 
     @property
-    def enabled(self):
+    def enabled(self) -> bool:
         return self._enabled
 
     @property
-    def samples(self):
+    def samples(self) -> int:
         """Number of samples that updated the estimate (frozen and skipped samples do not count)."""
         return int(self._stats[2])
 
     @property
-    def theta(self):
+    def theta(self) -> np.ndarray:
         return self._theta.copy()
 
     @property
-    def covariance(self):
+    def covariance(self) -> np.ndarray:
         """P, the unscaled covariance (inverse weighted information matrix); see parameter_covariance()."""
         return self._P.copy()
 
     @property
-    def effective_samples(self):
+    def effective_samples(self) -> float:
         """sum of the weights lambda^(N-k); tends to 1 / (1 - lambda)."""
         return float(self._stats[1])
 
     @property
-    def residual_variance(self):
+    def residual_variance(self) -> float:
         """sigma2 = weighted residual sum of squares / (effective samples - n); NaN until that is positive."""
         dof = self._stats[1] - self._n
         return float(self._stats[0] / dof) if dof > 0 else math.nan
 
-    def parameter_covariance(self):
+    def parameter_covariance(self) -> np.ndarray:
         return self.residual_variance * self._P
 
-    def parameter_std(self):
+    def parameter_std(self) -> np.ndarray:
         """sqrt(diag(sigma2 P))."""
         return np.sqrt(self.residual_variance * np.diag(self._P))

@@ -7,12 +7,15 @@ record's length. The result is greybox.identify's on the whole record to roundin
 states and moments, summed in other groupings); the convergence trajectory is sampled at part ends.
 """
 import itertools
+from collections.abc import Callable, Iterable, Iterator
+from pathlib import Path
 
 import numpy as np
 
 from emla_core.recording import Recording
 
 from . import checks, greybox, offline
+from .greybox import GreyBoxResult
 from .moments import RowMoments
 from .regressors import COLUMNS, HISTORY, INSTRUMENTED, RowStream
 
@@ -20,7 +23,8 @@ CHUNK_SAMPLES = 1 << 14  # samples whose rows are formed at a time: they stay in
 LONG_SAMPLES = 1 << 20   # from here on a record is identified part by part (bounded memory)
 
 
-def read_record(path, load, *, plain=True, long_samples=None):
+def read_record(path: Path | str, load: Callable[[Path], Recording], *, plain: bool = True,
+                long_samples: int | None = None) -> tuple[Recording, Iterator[Recording] | None]:
     """A record as identify_chunks or greybox.identify takes it, read in bounded memory when it is long.
 
     Parameters
@@ -41,8 +45,6 @@ def read_record(path, load, *, plain=True, long_samples=None):
         (the Recording, None) when it is shorter than `long_samples`, else (it or its first part, an iterator
         over its consecutive parts).
     """
-    from pathlib import Path
-
     from emla_core.bag import iter_chunks
     from emla_core.bag.foreign import suite_layout
     path = Path(path)
@@ -94,7 +96,9 @@ class _Regression:
         return self.moments.statistics(estimate.theta, estimate.covariance)
 
 
-def identify_chunks(chunks, model=None, forgetting=1.0, *, initial_covariance=1e6, points=200, progress=None):
+def identify_chunks(chunks: Iterable[Recording], model: str | None = None, forgetting: float = 1.0, *,
+                    initial_covariance: float = 1e6, points: int = 200,
+                    progress: Callable[[int], object] | None = None) -> GreyBoxResult:
     """greybox.identify of the record that `chunks` yields as consecutive Recordings, one held at a time.
 
     The trajectory holds the estimates after at most `points` evenly spaced parts (the last: the final
@@ -142,7 +146,7 @@ def _identified(first, chunks, model, kinds, lam, initial_covariance, points, pr
     return greybox.result(model, snapshots, ends, first, stream.samples, lam)
 
 
-def split(recording, chunk_samples=CHUNK_SAMPLES):
+def split(recording: Recording, chunk_samples: int = CHUNK_SAMPLES) -> Iterator[Recording]:
     """Consecutive parts of an in-memory Recording, `chunk_samples` samples each (the last shorter; views)."""
     ts = recording.sample_period
     for start in range(0, max(len(recording), 1), chunk_samples):

@@ -4,10 +4,14 @@ The plant (emla_sim.Plant, exact ZOH or RK4 with effects) runs at 10 kHz under a
 on the sensed position (voltage clipped to the supply) tracking a square-wave stroke, optionally with a
 small voltage dither; emla_sim.Sensor adds 5 mA current noise and 1 um position quantisation.
 """
+from collections.abc import Iterable
+
 import numpy as np
 
-from emla_core.parameters import PARAMETER_NAMES, TABLE1
+from emla_core.parameters import PARAMETER_NAMES, TABLE1, ActuatorParameters
+from emla_core.physics import Effect
 from emla_core.recording import Recording
+from emla_sim.effects import ParameterChange
 from emla_sim.plant import Plant
 from emla_sim.sensor import Sensor, SensorConfig
 
@@ -29,8 +33,10 @@ def true_metadata(params):
     return {f'true_{name}': repr(value) for name, value in params.physical().items()}
 
 
-def closed_loop(params=TABLE1, duration=1.0, *, effects=(), changes=(), stroke=3e-3, period=0.04, dither=0.0,
-                seed=0, sample_period=1e-4, current_noise=5e-3, resolution=1e-6):
+def closed_loop(params: ActuatorParameters = TABLE1, duration: float = 1.0, *, effects: Iterable[Effect | str] = (),
+                changes: Iterable[ParameterChange] = (), stroke: float = 3e-3, period: float = 0.04,
+                dither: float = 0.0, seed: int = 0, sample_period: float = 1e-4, current_noise: float = 5e-3,
+                resolution: float = 1e-6) -> tuple[Recording, ActuatorParameters]:
     """(Recording of t, voltage, current, position; the true ActuatorParameters at the start).
 
     effects, changes: as for emla_sim.plant.Plant (e.g. a ParameterChange of the resistance mid-run).
@@ -67,8 +73,9 @@ def random_parameters(rng, spread=0.3, **fixed):
     return TABLE1.scaled(**factors).replace(**fixed)
 
 
-def force_driven(mass=0.036, damping=2.0, load_force=0.0, duration=1.0, *, seed=0, sample_period=1e-4,
-                 force_noise=0.05, resolution=1e-6, lines=8, band=(20.0, 100.0)):
+def force_driven(mass: float = 0.036, damping: float = 2.0, load_force: float = 0.0, duration: float = 1.0, *,
+                 seed: int = 0, sample_period: float = 1e-4, force_noise: float = 0.05, resolution: float = 1e-6,
+                 lines: int = 8, band: tuple[float, float] = (20.0, 100.0)) -> tuple[Recording, dict[str, float]]:
     """Mechanical-only data (t, force, position) of a mass driven by a measured force, from the exact solution.
 
     m v' = F - B v - Fl with F = Fl + sum of `lines` sines in `band` Hz (random phases; 3 N each), from

@@ -2,7 +2,7 @@
 import dataclasses
 import math
 
-from emla_core.parameters import PARAMETER_NAMES
+from emla_core.parameters import PARAMETER_NAMES, ActuatorParameters
 
 
 @dataclasses.dataclass(frozen=True)
@@ -25,7 +25,7 @@ class ParameterChange:
         if not (math.isfinite(self.time) and self.time >= 0.0):
             raise ValueError(f'ParameterChange.time must be finite and >= 0, got {self.time!r}')
 
-    def apply(self, params):
+    def apply(self, params: ActuatorParameters) -> ActuatorParameters:
         """The ActuatorParameters after this change (they validate the result)."""
         if self.factor is not None:
             return params.scaled(**{self.parameter: self.factor})

@@ -9,18 +9,25 @@ With effects the plant takes classical RK4 sub-steps of at most MAX_SUBSTEP, com
 built-in effects (effects.integrate_interval), through the effect hooks in Python for other effects.
 Parameter changes take effect at their exact time, inside an interval if need be.
 """
+from __future__ import annotations
+
 import collections
 import functools
 import math
+from collections.abc import Iterable, Sequence
+from typing import TYPE_CHECKING
 
 import numba
 import numpy as np
 from scipy.linalg import expm
 
-from emla_core.parameters import TABLE1
+from emla_core.parameters import TABLE1, ActuatorParameters
 
 from emla_core.physics import AMBIENT_TEMPERATURE, Effect, make_effect
 from emla_core.physics.kernel import coil_state, hook_rates, integrate_interval, integrate_sequence, kernel_vector
+
+if TYPE_CHECKING:
+    from emla_sim.effects import ParameterChange
 
 # RK4 sub-step bound: 10 sub-steps per 0.1 ms sample keep the integration error many orders of magnitude
 # below the sensor noise (5 mA, 1 um) and resolve the electrical time constant L/R = 0.4 ms.
@@ -64,7 +71,9 @@ class Plant:
     Coil temperature T is in deg C; it starts at the thermal effect's ambient (else AMBIENT_TEMPERATURE).
     """
 
-    def __init__(self, params=TABLE1, effects=(), changes=(), *, initial_state=None, substeps=None):
+    def __init__(self, params: ActuatorParameters = TABLE1, effects: Iterable[Effect | str] = (),
+                 changes: Iterable[ParameterChange] = (), *, initial_state: Sequence[float] | None = None,
+                 substeps: int | None = None) -> None:
         self._effects = tuple(make_effect(e) if isinstance(e, str) else e for e in effects)
         for effect in self._effects:
             if not isinstance(effect, Effect):
@@ -102,18 +111,18 @@ class Plant:
     effects = property(lambda self: self._effects, doc='The active effects.')
 
     @property
-    def force(self):
+    def force(self) -> float:
         """Coil force d W'/dx (N): Km I for a moving coil, with the effects' terms."""
         return coil_state(self._params, self._effects, self._i, self._x)[2]
 
     @property
-    def integration(self):
+    def integration(self) -> str:
         """'exact' (linear ZOH), 'rk4' (compiled) or 'rk4-python' (through effect hooks)."""
         if not self._effects:
             return 'exact'
         return 'rk4' if self._kernel is not None else 'rk4-python'
 
-    def true_parameters(self):
+    def true_parameters(self) -> ActuatorParameters:
         """The ActuatorParameters now: after the parameter changes so far, R at the coil temperature.
 
         State-dependent effects (L(I), Km(x), friction, spring) are functions, not parameters: their
@@ -122,7 +131,7 @@ class Plant:
         return self._params.scaled(resistance=math.prod(e.resistance_factor(self._temp) for e in self._effects))
 
     # ---- advancing ----
-    def step(self, voltage, dt):
+    def step(self, voltage: float, dt: float) -> tuple[float, float, float]:
         """Advance one ZOH interval of dt seconds at `voltage`; return (I, x, v) at its end."""
         supply = self._params.supply_voltage
         u = supply if voltage > supply else -supply if voltage < -supply else float(voltage)
@@ -136,7 +145,7 @@ class Plant:
             self._step_through_changes(u, dt)
         return self._i, self._x, self._v
 
-    def run(self, voltages, dt, *, sampling='end'):
+    def run(self, voltages: Sequence[float] | np.ndarray, dt: float, *, sampling: str = 'end') -> dict[str, np.ndarray]:
         """Apply a voltage sequence, one ZOH interval of dt per value.
 
         Returns a dict of arrays: time, voltage (as applied, clipped), current, position, velocity,
@@ -172,7 +181,7 @@ class Plant:
             times = t0 + dt * np.arange(1, u.size + 1)
         return dict(time=times, voltage=u, **{name: rows[:, c].copy() for c, name in enumerate(_COLUMNS)})
 
-    def advance(self, voltage, dt, n):
+    def advance(self, voltage: float, dt: float, n: int) -> dict[str, np.ndarray]:
         """n intervals of dt at one voltage (a control period of n samples): run()'s dict, end sampling."""
         return self.run(np.full(int(n), float(voltage)), dt)
 

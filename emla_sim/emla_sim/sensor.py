@@ -64,14 +64,15 @@ class _NormalStream:
 class Sensor:
     """Measures (current, position) pairs: scalars one sample at a time or 1-D arrays of consecutive samples."""
 
-    def __init__(self, config=None):
+    def __init__(self, config: SensorConfig | None = None) -> None:
         self.config = config if config is not None else SensorConfig()
         current_rng, position_rng = np.random.default_rng(self.config.seed).spawn(2)
         self._current_noise = _NormalStream(current_rng)
         self._position_noise = _NormalStream(position_rng)
         self._line = collections.deque()  # the last delay_samples true (current, position) pairs
 
-    def measure(self, current, position):
+    def measure(self, current: float | np.ndarray,
+                position: float | np.ndarray) -> tuple[float, float] | tuple[np.ndarray, np.ndarray]:
         """(current_measured, position_measured), floats for scalars, arrays for arrays."""
         if isinstance(current, (int, float)) and isinstance(position, (int, float)):
             return self._measure_one(float(current), float(position))

@@ -35,7 +35,7 @@ from typing import ClassVar
 CANDIDATES = {}
 
 
-def register_candidate(cls):
+def register_candidate(cls: 'type[Candidate]') -> 'type[Candidate]':
     """Class decorator: make a Candidate subclass part of the library under `cls.name`."""
     if not (isinstance(cls, type) and issubclass(cls, Candidate)):
         raise TypeError(f'register_candidate needs a subclass of Candidate, got {cls!r}')

@@ -17,7 +17,7 @@ with names, SI units, bounds and defaults, and the dataclass has one field for e
 import dataclasses
 import math
 import numbers
-from typing import ClassVar
+from typing import ClassVar, Self
 
 AMBIENT_TEMPERATURE = 20.0  # deg C; the coil temperature when no thermal model is active
 
@@ -35,7 +35,7 @@ class Parameter:
     doc: str = ''
     infinite: bool = False
 
-    def checked(self, value, where):
+    def checked(self, value: float, where: str) -> float:
         """`value` as a float within the bounds, or ValueError naming `where` and what is wrong."""
         if isinstance(value, bool) or not isinstance(value, numbers.Real):
             raise ValueError(f'{where}.{self.name} must be a number, got {value!r}')
@@ -72,47 +72,47 @@ class Effect:
             object.__setattr__(self, spec.name, spec.checked(getattr(self, spec.name), where))
 
     @classmethod
-    def specs(cls):
+    def specs(cls) -> dict[str, Parameter]:
         """{name: Parameter} of the parameters and settings."""
         return {p.name: p for p in cls.parameters + cls.settings}
 
     # ---- plant hooks: how the effect changes the equations of equations.py at a state ----
-    def resistance_factor(self, temperature):
+    def resistance_factor(self, temperature: float) -> float:
         """R(T) / R."""
         return 1.0
 
-    def temperature_rate(self, temperature, joule_power):
+    def temperature_rate(self, temperature: float, joule_power: float) -> float:
         """dT/dt (K/s) of the coil given its Joule heating R(T) I^2 (W)."""
         return 0.0
 
-    def flux_terms(self, position, current):
+    def flux_terms(self, position: float, current: float) -> tuple[float, float, float]:
         """(d psi_e/dI in H, d psi_e/dx in V s/m, d W'_e/dx in N) of the flux linkage psi_e(x, I) the effect adds
         to L I + Km x, and of its co-energy W'_e: added to the incremental inductance, the back-EMF
         coefficient and the coil force."""
         return 0.0, 0.0, 0.0
 
-    def extra_force(self, position, velocity):
+    def extra_force(self, position: float, velocity: float) -> float:
         """Extra force on the moving part (N), counted like Fl: positive opposes motion towards +x."""
         return 0.0
 
-    def friction_level(self):
+    def friction_level(self) -> float:
         """Coulomb friction level Fc (N); the plant applies it as Fc sign(v) with sticking."""
         return 0.0
 
-    def kernel_values(self):
+    def kernel_values(self) -> dict[str, float] | None:
         """{kernel slot: value} for the compiled dynamics (kernel.py), or None to be integrated through the
         hooks (correct, about 100x slower)."""
         return None
 
     # ---- the inverse law ----
-    def compensation(self):
+    def compensation(self) -> dict[str, float]:
         """{law coefficient: value} the inverse law compensates (emla_control.controller.EFFECTS); {} with
         `control_refusal` set when it does not."""
         return {}
 
     # ---- the model file ----
     @classmethod
-    def from_model(cls, values, settings):
+    def from_model(cls, values: dict[str, float], settings: dict[str, float]) -> Self:
         """The effect of a model file's entry: its parameters `values` {name: value} and `settings`; ValueError
         when the plant does not simulate it."""
         if cls.simulation_refusal:
@@ -125,7 +125,7 @@ class Effect:
 EFFECTS = {}
 
 
-def register_effect(cls):
+def register_effect(cls: type[Effect]) -> type[Effect]:
     """Class decorator: make an Effect subclass (and its candidate) known under `cls.name`."""
     from .candidate import register_candidate
     if not (isinstance(cls, type) and issubclass(cls, Effect)):
@@ -142,7 +142,7 @@ def register_effect(cls):
     return cls
 
 
-def make_effect(name, **parameters):
+def make_effect(name: str, **parameters: float) -> Effect:
     """An effect by its registered name with some of its parameters and settings (the rest at their defaults)."""
     if name not in EFFECTS:
         raise ValueError(f'unknown effect {name!r}; known: {sorted(EFFECTS)}')

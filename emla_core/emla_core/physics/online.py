@@ -21,6 +21,6 @@ class OnlineColumn:
     force: object
     stencils: dict = dataclasses.field(default_factory=dict)
 
-    def stencil(self, signal):
+    def stencil(self, signal: str) -> np.ndarray:
         """How white noise on `signal` at samples k-2 .. k+2 enters the column."""
         return np.asarray(self.stencils.get(signal, np.zeros(5)), dtype=float)

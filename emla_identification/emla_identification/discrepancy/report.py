@@ -8,14 +8,14 @@ from .data import regression_rows
 from .dependence import SMOOTHING, signals_of
 from .fit import FOLDS
 from .residuals import CONFIDENCE
-from .workflow import MIN_BLOCKS, MIN_SCORE, MIN_SHARE, MIN_T, localise
+from .workflow import MIN_BLOCKS, MIN_SCORE, MIN_SHARE, MIN_T, Diagnosis, localise
 
 UNITS = {'current': 'A', 'position': 'm', 'voltage': 'V', 'force': 'N', 'time': 's', 'velocity': 'm/s',
          'acceleration': 'm/s^2', 'current rate': 'A/s', 'force rate': 'N/s', 'voltage rate': 'V/s'}
 WINDOW = 0.08   # s of record shown in the time plots, around the largest discrepancy
 
 
-def write_report(diagnosis, directory, json_text=None):
+def write_report(diagnosis: Diagnosis, directory: Path | str, json_text: str | None = None) -> Path:
     """Write report.md, gap.png, residuals.png, correlation.png, disagreement.png (and diagnosis.json) into
     `directory`."""
     import matplotlib

@@ -34,13 +34,17 @@ it is a partial match and the verdict stays `unexplained`. Up to MAX_EFFECTS eff
 the final model is the nominal one with all of them, re-identified jointly.
 """
 import functools
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.ndimage import uniform_filter1d
 
 from emla_core.data import as_recording
 from emla_core.errors import InputError
+from emla_core.recording import Recording
 
 from ..checks import check_magnitudes, numerical_failures
 from ..plausibility import plausibility_warnings
@@ -48,7 +52,7 @@ from .adequacy import EQUATION, assess_adequacy
 from .candidates import library
 from .data import Data, regression_rows
 from .dependence import dependence
-from .fit import FOLDS, design, fit, physical, with_systematic
+from .fit import FOLDS, Fit, design, fit, physical, with_systematic
 from .predict import MECHANICAL_TIME, predict
 from .residuals import binned, cross_correlation, whiteness
 
@@ -134,25 +138,25 @@ class Diagnosis:
     warnings: list = field(default_factory=list)  # the nominal model's implausible values and their likely causes
 
     @property
-    def final(self):
+    def final(self) -> Fit:
         """The final model: the nominal one with every named effect, re-identified jointly."""
         return self.stages[-1].assessment.fit if self.stages else self.nominal
 
     @property
-    def final_adequacy(self):
+    def final_adequacy(self) -> dict:
         return self.stages[-1].adequacy if self.stages else self.nominal_adequacy
 
     @property
-    def after(self):
+    def after(self) -> dict:
         return self.stages[-1].predictions if self.stages else self.before
 
     @property
-    def main(self):
+    def main(self) -> Assessment | None:
         """The first effect named, or None."""
         return self.stages[0].assessment if self.stages else None
 
     @property
-    def verdict(self):
+    def verdict(self) -> str:
         if all(a.adequate for a in self.nominal_adequacy.values()):
             return 'adequate'
         return 'explained' if all(a.adequate for a in self.final_adequacy.values()) else 'unexplained'
@@ -162,7 +166,7 @@ class Diagnosis:
         """(one-sigma of the final model's nominal parameters, of its added ones): jackknife and systematic."""
         return with_systematic(self.final)
 
-    def added_parameters(self):
+    def added_parameters(self) -> dict[str, tuple[float, float]]:
         """{name: (value, one-sigma)} of every named effect's parameters, from the final joint fit."""
         final, added_std = self.final, self.final_std[1]
         out = {}
@@ -170,7 +174,7 @@ class Diagnosis:
             out.update(candidate.reported(final.added[part], added_std[part], final.parameters))
         return out
 
-    def disagreement(self, model='final'):
+    def disagreement(self, model: str = 'final') -> dict[str, dict]:
         """{equation: size against the noise floor and the signals it depends on} of the final (or nominal)
         model."""
         fit, adequacy = (self.final, self.final_adequacy) if model == 'final' else (self.nominal,
@@ -187,7 +191,7 @@ class Diagnosis:
                 out[a.equation].update(depends_on=singles[:5], jointly=pairs[:3])
         return out
 
-    def to_dict(self):
+    def to_dict(self) -> dict:
         verdict = self.verdict
         added = self.added_parameters()
         final = self.final
@@ -222,7 +226,9 @@ def _rounded(parameters):
     return {k: float(f'{v:.6g}') for k, v in parameters.items()}
 
 
-def diagnose(data=None, names=None, *, sample_period=None, voltage=None, current=None, position=None, force=None):
+def diagnose(data: Recording | Path | str | None = None, names: Sequence[str] | None = None, *,
+             sample_period: float | None = None, voltage: ArrayLike | None = None, current: ArrayLike | None = None,
+             position: ArrayLike | None = None, force: ArrayLike | None = None) -> Diagnosis:
     """Find what the two-equation actuator model is missing in a record: say whether it is adequate, name the
     missing effects, add them and show the gap shrink, or say where an unexplained disagreement lies.
 

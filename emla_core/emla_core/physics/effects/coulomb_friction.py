@@ -87,11 +87,11 @@ class CoulombFriction(Effect):
     online: ClassVar[object] = OnlineColumn('coulomb_force', _online_force)
     coulomb_force: float = 1.0
 
-    def friction_level(self):
+    def friction_level(self) -> float:
         return self.coulomb_force
 
-    def kernel_values(self):
+    def kernel_values(self) -> dict[str, float] | None:
         return {'coulomb_force': self.coulomb_force}
 
-    def compensation(self):
+    def compensation(self) -> dict[str, float]:
         return {'coulomb_force': self.coulomb_force}

@@ -62,10 +62,10 @@ class ForceConstantVariation(Effect):
     emf_constant_curvature: float = -43200.0
     center: float = 0.0
 
-    def flux_terms(self, position, current):
+    def flux_terms(self, position: float, current: float) -> tuple[float, float, float]:
         change = emf_change(position, self.emf_constant_slope, self.emf_constant_curvature, self.center)
         return 0.0, change, change * current
 
-    def kernel_values(self):
+    def kernel_values(self) -> dict[str, float] | None:
         return {'emf_constant_slope': self.emf_constant_slope, 'emf_constant_curvature': self.emf_constant_curvature,
                 'emf_constant_center': self.center}

@@ -4,7 +4,7 @@ l(I) = L + L2 g(I), g(I) = I^2 / (1 + (I/I_s)^2). With L2 = -L / I_s^2 this is L
 saturation curve (flux linkage L I_s atan(I/I_s)); with I_s = inf the quadratic L + L2 I^2 of small currents.
 """
 import dataclasses
-from typing import ClassVar
+from typing import ClassVar, Self
 
 import numba
 import numpy as np
@@ -69,12 +69,12 @@ class InductanceSaturation(Effect):
     saturation_current: float = 8.0
 
     @classmethod
-    def curve(cls, inductance, saturation_current):
+    def curve(cls, inductance: float, saturation_current: float) -> Self:
         """The effect whose l(I) is inductance / (1 + (I / saturation_current)^2)."""
         return cls(inductance_quadratic=-inductance / saturation_current ** 2, saturation_current=saturation_current)
 
-    def flux_terms(self, position, current):
+    def flux_terms(self, position: float, current: float) -> tuple[float, float, float]:
         return inductance_change(current, self.inductance_quadratic, self.saturation_current), 0.0, 0.0
 
-    def kernel_values(self):
+    def kernel_values(self) -> dict[str, float] | None:
         return {'inductance_quadratic': self.inductance_quadratic, 'saturation_current': self.saturation_current}

@@ -60,7 +60,7 @@ class PositionInductance(Effect):
     inductance_curvature: float = 0.0
     center: float = 0.0
 
-    def flux_terms(self, position, current):
+    def flux_terms(self, position: float, current: float) -> tuple[float, float, float]:
         d = position - self.center
         slope = self.inductance_slope + 2.0 * self.inductance_curvature * d   # L'(x)
         return (self.inductance_slope + self.inductance_curvature * d) * d, current * slope, \

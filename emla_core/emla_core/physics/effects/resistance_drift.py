@@ -6,7 +6,7 @@ the thermal time constant R_th C_th, scaled to peak at 1), so dR is the rise at 
 coil's thermal resistance and capacitance are not separable from electrical data alone.
 """
 import dataclasses
-from typing import ClassVar
+from typing import ClassVar, Self
 
 import numba
 import numpy as np
@@ -81,25 +81,25 @@ class ResistanceDrift(Effect):
     ambient_temperature: float = AMBIENT_TEMPERATURE
 
     @classmethod
-    def fast(cls, time_constant=0.05, **fields):
+    def fast(cls, time_constant: float = 0.05, **fields: float) -> Self:
         """Same steady temperature rise, thermal time constant R_th C_th = time_constant (s)."""
         thermal_resistance = fields.pop('thermal_resistance', cls.thermal_resistance)
         return cls(thermal_resistance=thermal_resistance,
                    thermal_capacitance=time_constant / thermal_resistance, **fields)
 
     @classmethod
-    def from_model(cls, values, settings):
+    def from_model(cls, values: dict[str, float], settings: dict[str, float]) -> Self:
         raise ValueError('resistance_drift: a model file holds the rise over its own record; the plant needs the '
                          'coil\'s thermal resistance and capacitance')
 
-    def resistance_factor(self, temperature):
+    def resistance_factor(self, temperature: float) -> float:
         return drift_factor(temperature, self.temperature_coefficient, self.ambient_temperature)
 
-    def temperature_rate(self, temperature, joule_power):
+    def temperature_rate(self, temperature: float, joule_power: float) -> float:
         return thermal_rate(temperature, joule_power, self.ambient_temperature,
                             self.thermal_resistance, self.thermal_capacitance)
 
-    def kernel_values(self):
+    def kernel_values(self) -> dict[str, float] | None:
         return {'temperature_coefficient': self.temperature_coefficient,
                 'ambient_temperature': self.ambient_temperature,
                 'thermal_resistance': self.thermal_resistance,

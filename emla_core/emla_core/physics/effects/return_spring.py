@@ -59,11 +59,11 @@ class ReturnSpring(Effect):
     spring_stiffness: float = 2000.0
     spring_center: float = 0.0
 
-    def extra_force(self, position, velocity):
+    def extra_force(self, position: float, velocity: float) -> float:
         return spring_force(position, self.spring_stiffness, self.spring_center)
 
-    def kernel_values(self):
+    def kernel_values(self) -> dict[str, float] | None:
         return {'spring_stiffness': self.spring_stiffness, 'spring_center': self.spring_center}
 
-    def compensation(self):
+    def compensation(self) -> dict[str, float]:
         return {'spring_stiffness': self.spring_stiffness, 'spring_center': self.spring_center}
