@@ -156,7 +156,10 @@ def read(path: Path | str) -> Model:
         if not low <= value <= high:
             raise InputError(f'{path}: parameters.{name} {value:g} is outside [{low:g}, {high:g}]')
     effects = []
-    for j, item in enumerate(document.get('effects') or []):
+    listed = document.get('effects') or []
+    if not isinstance(listed, list):
+        raise InputError(f'{path}: effects must be a list of {{effect, parameters, settings}}')
+    for j, item in enumerate(listed):
         where = f'effects[{j}]'
         if not isinstance(item, dict) or not isinstance(item.get('effect'), str):
             raise InputError(f'{path}: {where} needs an `effect` name')

@@ -214,8 +214,10 @@ def _shape_problem(info):
     names = info.get('relative_file_paths')
     if not isinstance(names, list) or not all(isinstance(n, str) and n and '\0' not in n for n in names):
         return 'relative_file_paths is missing or not a list of file names'
-    if not isinstance(info.get('custom_data') or {}, dict):
-        return 'custom_data is not a mapping'
+    custom = info.get('custom_data') or {}
+    if not isinstance(custom, dict) or not all(   # rosbag2's custom_data maps strings to strings
+            isinstance(v, (str, int, float, bool)) or v is None for v in custom.values()):
+        return 'custom_data is not a mapping of names to plain values'
     topics = info.get('topics_with_message_count') or []
     if not isinstance(topics, list) or not all(
             isinstance(t, dict) and isinstance(t.get('topic_metadata'), dict)

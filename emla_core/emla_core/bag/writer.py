@@ -169,7 +169,7 @@ def write_recording(recording, path, *, frame_size=100, estimates=(), custom_dat
     """
     period = recording.sample_period
     end = recording.start_time + len(recording) * period
-    if not (0.0 <= recording.start_time and end < 2**64 * 1e-9):   # MCAP log times: unsigned 64-bit ns
+    if not (-0.5e-9 < recording.start_time and end < 2**64 * 1e-9):   # MCAP log times: unsigned 64-bit ns
         raise InputError(f'{recording.source or path}: the data run from t = {recording.start_time:.6g} s to '
                          f'{end:.6g} s; a bag stamps them in nanoseconds from 0 to 584 years: give a time column '
                          f'that starts at 0 or later')

@@ -53,9 +53,9 @@ def predict_current(fit):
     rows = ElectricalRows(data, fit.linearised_about)
     horizon = max(1, int(np.ceil(5.0 * p['inductance'] / (p['resistance'] * data.sample_period))))
     theta = fit.theta['electrical']
-    starts = np.arange(len(rows.y) - horizon + 1)
+    starts = np.arange(max(len(rows.y) - horizon + 1, 0))
     current = rows.phi[starts, 0]
-    for j in range(horizon):
+    for j in range(horizon if len(starts) else 0):   # a horizon beyond the record: nothing to predict
         r = starts + j
         step = theta[0] * current + rows.phi[r, 1:] @ theta[1:]
         if fit.candidates:
@@ -77,7 +77,7 @@ def predict_position(fit):
     x = data.signals['position'][starts]
     v = _start_velocity(data, force, p)[starts]
     held = held_samples(data, fit.candidates)
-    for j in range(horizon):
+    for j in range(horizon if len(starts) else 0):   # a horizon beyond the record: nothing to predict
         k = starts + j
         net = force[k] - p['load_force']
         if fit.candidates:
