@@ -9,7 +9,7 @@ from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 
 from emla_core import messages, topics
-from emla_core.nodes import common
+from emla_core.nodes.qos import FRAME_QOS, LATCHED_QOS
 from emla_msgs.msg import ParameterEstimate, SampleFrame, SignalFrames
 from emla_sim.datasets import closed_loop
 from ros_isolation import processes
@@ -80,9 +80,9 @@ def run_node(tmp_path, name, frames, outputs, finished, end=None, **params):
     with ros_node() as (node, executor), processes() as start:
         for topic, msgtype in outputs.items():
             node.create_subscription(msgtype, topic, received[topic].append, 1000)
-        publishers = {topic: node.create_publisher(type(msg), topics.NAMESPACE + topic, common.FRAME_QOS)
+        publishers = {topic: node.create_publisher(type(msg), topics.NAMESPACE + topic, FRAME_QOS)
                       for topic, msg in messages_out}
-        done = node.create_publisher(Time, topics.DONE_TOPIC, common.LATCHED_QOS)
+        done = node.create_publisher(Time, topics.DONE_TOPIC, LATCHED_QOS)
         proc = start([EMLA, 'run', name, '--params-file', params_file(tmp_path, name, **params)])
         spin_until(executor, lambda: all(p.get_subscription_count() for p in publishers.values()), 60, [proc])
         for topic, msg in messages_out:

@@ -15,7 +15,8 @@ from rosgraph_msgs.msg import Clock
 
 from emla_control.nodes.controller_node import ControllerNode
 from emla_core import topics
-from emla_core.nodes import common
+from emla_core.nodes.qos import CLOCK_QOS, FRAME_QOS, LATCHED_QOS
+from emla_core.nodes.run import ros_node as suite_ros_node
 from emla_identification.nodes.identifier_node import IdentifierNode
 from emla_msgs.msg import ParameterEstimate, SampleFrame
 from emla_sim.nodes.plant_node import PlantNode
@@ -40,7 +41,7 @@ RCLPY_PARAMETERS = {'use_sim_time', 'start_type_description_service'}  # every r
 
 def ros_node():
     """An rclpy node and executor of this test process in the isolated domain of its node processes."""
-    return common.ros_node('test_nodes', domain=int(isolated_env()['ROS_DOMAIN_ID']))
+    return suite_ros_node('test_nodes', domain=int(isolated_env()['ROS_DOMAIN_ID']))
 
 
 def spin_until(executor, condition, timeout, procs=()):
@@ -59,12 +60,12 @@ class Listener:
         self.frames = {topic: [] for topic in VOLTAGE_TOPICS + STATE_TOPICS}
         self.estimates, self.diagnostics, self.done = [], [], []
         self.subscriptions = [node.create_subscription(SampleFrame, topic, lambda msg, frames=frames: frames.append(
-            (topics.stamp_to_ns(msg.header.stamp), msg.sample_period, np.array(msg.data))), common.FRAME_QOS)
+            (topics.stamp_to_ns(msg.header.stamp), msg.sample_period, np.array(msg.data))), FRAME_QOS)
             for topic, frames in self.frames.items()]
         self.subscriptions += [
             node.create_subscription(ParameterEstimate, topics.PARAMETERS_TOPIC, self.estimates.append, 10),
             node.create_subscription(DiagnosticArray, topics.DIAGNOSTICS_TOPIC, self.diagnostics.append, 10)]
-        node.create_subscription(Time, topics.DONE_TOPIC, self.done.append, common.LATCHED_QOS)
+        node.create_subscription(Time, topics.DONE_TOPIC, self.done.append, LATCHED_QOS)
 
     def matched(self, topics):
         """Whether the subscriptions to `topics` have matched a publisher."""
@@ -109,7 +110,7 @@ def run_graph(tmp_path):
         spin_until(executor, listener.finished, 120, procs.values())
         wait_exit(procs['plant'])  # it ends by itself after the done signal
         late = []  # a late subscriber gets the latest estimate (transient local)
-        node.create_subscription(ParameterEstimate, topics.PARAMETERS_TOPIC, late.append, common.LATCHED_QOS)
+        node.create_subscription(ParameterEstimate, topics.PARAMETERS_TOPIC, late.append, LATCHED_QOS)
         spin_until(executor, lambda: late, 10)
         for name in others:
             procs[name].send_signal(signal.SIGTERM)
@@ -180,14 +181,14 @@ def test_the_plant_starts_only_once_its_done_signal_has_a_reader(tmp_path):
     """A reader of /emla/plant/done found after the plant left would never get it: the plant waits for them."""
     with ros_node() as (node, executor), processes() as start:
         ticks = []
-        clock = node.create_subscription(Clock, topics.CLOCK_TOPIC, ticks.append, common.CLOCK_QOS)
+        clock = node.create_subscription(Clock, topics.CLOCK_TOPIC, ticks.append, CLOCK_QOS)
         plant = start([EMLA, 'run', 'plant', '--params-file',
                        params_file(tmp_path, 'plant', start_subscribers=0, done_subscribers=1)])
         spin_until(executor, lambda: clock.get_publisher_count(), 30, [plant])
         settle = time.monotonic() + 1.0
         spin_until(executor, lambda: time.monotonic() > settle, 5, [plant])
         assert not ticks                                   # matched, but waiting for a reader of the done signal
-        node.create_subscription(Time, topics.DONE_TOPIC, lambda msg: None, common.LATCHED_QOS)
+        node.create_subscription(Time, topics.DONE_TOPIC, lambda msg: None, LATCHED_QOS)
         spin_until(executor, lambda: ticks, 30, [plant])
         assert topics.stamp_to_ns(ticks[0].clock) == 0     # started: the state at t = 0 and /clock = 0
         plant.send_signal(signal.SIGTERM)

@@ -21,12 +21,12 @@ import sys, time
 import rclpy
 from emla_core import messages, topics
 from emla_core.messages import message_class
-from emla_core.nodes import common
+from emla_core.nodes.qos import qos_profile
 from emla_core.topics import RECORDED
 frames = int(sys.argv[1])
 rclpy.init()
 node = rclpy.create_node('test_publisher')
-every = {topic: node.create_publisher(message_class(msgtype), topic, common.qos_profile(kind))
+every = {topic: node.create_publisher(message_class(msgtype), topic, qos_profile(kind))
          for topic, (msgtype, kind) in RECORDED.items()}
 frame_topics = ('/emla/plant/current', '/emla/voltage', '/emla/current', '/emla/position')
 publishers = {topic: every[topic] for topic in frame_topics}

@@ -27,10 +27,10 @@ def scenario_parameters(scenario: Scenario) -> dict[str, dict[str, object]]:
     InputError
         If the scenario changes a parameter other than by a factor (the plant node takes factors only).
     """
-    from emla_core.nodes import common  # rclpy loads only when a graph is launched
+    from emla_core.nodes.param_specs import ACTUATOR_FIELDS
 
     changed, adaptive = scenario.cases[scenario.graph_case]
-    actuator = {name: getattr(scenario.params, name) for name in common.ACTUATOR_FIELDS}
+    actuator = {name: getattr(scenario.params, name) for name in ACTUATOR_FIELDS}
     plant = {**actuator, 'sample_period': scenario.sample_period}
     effects = scenario.model_effects + (scenario.effects if changed else ())
     if effects:

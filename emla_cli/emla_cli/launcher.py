@@ -251,7 +251,7 @@ class Monitor:
     def __init__(self, node, cpu_times):
         from builtin_interfaces.msg import Time
 
-        from emla_core.nodes import common
+        from emla_core.nodes.qos import LATCHED_QOS
         from emla_msgs.msg import ParameterEstimate
 
         # Progress comes from the plant's true parameters, published at its start (t = 0) and every 10 ms of
@@ -265,10 +265,10 @@ class Monitor:
         self._cpu_times = cpu_times
         self.cpu_at_start = self.cpu_at_done = None  # {process: CPU s} at the first tick and at the done signal
         # the estimates as bytes: their stamps are all it needs (the bag has the values), a tenth of the cost
-        node.create_subscription(ParameterEstimate, topics.TRUE_PARAMETERS_TOPIC, self._on_tick, common.LATCHED_QOS,
+        node.create_subscription(ParameterEstimate, topics.TRUE_PARAMETERS_TOPIC, self._on_tick, LATCHED_QOS,
                                  raw=True)
-        node.create_subscription(Time, topics.DONE_TOPIC, self._on_done, common.LATCHED_QOS)
-        node.create_subscription(ParameterEstimate, topics.PARAMETERS_TOPIC, self._on_estimate, common.LATCHED_QOS,
+        node.create_subscription(Time, topics.DONE_TOPIC, self._on_done, LATCHED_QOS)
+        node.create_subscription(ParameterEstimate, topics.PARAMETERS_TOPIC, self._on_estimate, LATCHED_QOS,
                                  raw=True)
 
     def _on_tick(self, cdr):
@@ -324,7 +324,7 @@ def launch(scenario, duration, bag, node_parameters):
     raises LaunchError when a node dies or the run stalls. Every process is stopped on return."""
     from tqdm import tqdm
 
-    from emla_core.nodes.common import ros_node
+    from emla_core.nodes.run import ros_node
 
     started = time.monotonic()
     remove_unused_shm(stale_shm_files())  # what a launcher killed earlier left

@@ -3,7 +3,7 @@ every process, and the bag writer, can load it cheaply).
 
 Graph (namespace /emla, SI units). A SampleFrame holds consecutive samples of one signal, stamped with the
 time of its first sample. Which node publishes what, and the lockstep between them, is described in
-emla_core.nodes.common.
+emla_core.nodes.
 """
 
 NAMESPACE = '/emla/'
@@ -43,7 +43,7 @@ DIAGNOSTICS_TOPIC = '/diagnostics'
 CONTROL_PERIOD = 1e-3   # s
 ESTIMATE_PERIOD = 0.01  # s
 
-# QoS of the suite's publishers (see emla_core.nodes.common for why):
+# QoS of the suite's publishers (see emla_core.nodes for why):
 # frame: reliable, transient local, keep last 1000 (1 s of 1 ms frames: a reader outside the loop may lag
 #   that much without losing frames); latched: reliable, transient local, keep last 1 (a late subscriber gets
 #   the latest); clock: best effort, volatile, keep last 1 (as rclpy's time source subscribes);

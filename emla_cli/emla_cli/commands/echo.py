@@ -78,7 +78,7 @@ def subscriber_qos(publishers):
 
 def run(args):
     from emla_core.messages import message_class
-    from emla_core.nodes.common import ros_node
+    from emla_core.nodes.run import ros_node
 
     check_topic(args.topic)
     limit = None if args.full_length else args.truncate_length

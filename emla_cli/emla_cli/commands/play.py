@@ -7,7 +7,7 @@ overflow; the bag's own /emla/parameters is then not played. Without an identifi
 at once.
 /clock follows the stamps, so nodes with use_sim_time run on the bag's time. At the end /emla/plant/done
 carries the end of the played data, as the plant sends it, so a live identifier publishes its final estimate
-(see emla_core.nodes.common). The bag is read by emla_core.bag (MCAP, or sqlite3 through rosbags): a corrupt
+(see emla_core.nodes). The bag is read by emla_core.bag (MCAP, or sqlite3 through rosbags): a corrupt
 MCAP chunk is skipped with a warning.
 """
 import itertools
@@ -92,11 +92,11 @@ class IdentifierPace:
 
     def __init__(self, node, executor, start):
         from emla_core.messages import message_class
-        from emla_core.nodes import common
+        from emla_core.nodes.qos import LATCHED_QOS
         self.executor = executor
         self.covered = start
         for topic, msgtype in ESTIMATES.items():
-            node.create_subscription(message_class(msgtype), topic, self._on_estimate, common.LATCHED_QOS)
+            node.create_subscription(message_class(msgtype), topic, self._on_estimate, LATCHED_QOS)
 
     def _on_estimate(self, msg):
         self.covered = max(self.covered, stamp_to_ns(msg.header.stamp))
@@ -124,17 +124,17 @@ def run(args):
 
     from emla_core import messages
     from emla_core.messages import message_class
-    from emla_core.nodes import common
-    from emla_core.nodes.common import ros_node
+    from emla_core.nodes.qos import CLOCK_QOS, FRAME_QOS, LATCHED_QOS
+    from emla_core.nodes.run import ros_node
 
     played, start, bag = _open(args)
     with ros_node('emla_play') as (node, executor):
         publishers = {topic: node.create_publisher(
             message_class(msgtype), topic,
-            common.FRAME_QOS if msgtype == SAMPLE_FRAME else common.LATCHED_QOS) for topic, msgtype in played.items()}
-        clock = node.create_publisher(Clock, topics.CLOCK_TOPIC, common.CLOCK_QOS)
+            FRAME_QOS if msgtype == SAMPLE_FRAME else LATCHED_QOS) for topic, msgtype in played.items()}
+        clock = node.create_publisher(Clock, topics.CLOCK_TOPIC, CLOCK_QOS)
         done = node.create_publisher(message_class('builtin_interfaces/msg/Time'), topics.DONE_TOPIC,
-                                     common.LATCHED_QOS)
+                                     LATCHED_QOS)
         unheard = _wait_for_subscribers(publishers, args.wait)
         if unheard:
             print(f'emla play: no subscriber (yet) of {", ".join(unheard)}', file=sys.stderr)

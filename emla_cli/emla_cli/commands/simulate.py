@@ -42,7 +42,7 @@ def add_arguments(parser):
 def frames(values, n, state):
     """(index of the first sample, samples) of the graph's frames of n samples over len(values) - 1 intervals:
     a voltage frame holds the n values applied over one control period; a state frame the n samples those
-    intervals end on, after a first frame with the state at t = 0 (see emla_core.nodes.common)."""
+    intervals end on, after a first frame with the state at t = 0 (see emla_core.nodes)."""
     intervals = len(values) - 1
     if state:
         yield 0, values[:1]

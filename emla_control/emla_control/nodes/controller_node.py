@@ -7,8 +7,8 @@ predicts the state at t + Tc from its model (InverseSystemController.step_ahead)
 (t = 0) it also commands the period starting there, with the law's voltage without delay. The stroke reference
 it tracks goes out ahead, in frames of REFERENCE_FRAME periods. Adaptive: at each t that is a multiple of
 `adaptation_period` (from the second on) it first waits for the estimate stamped one adaptation period
-earlier (see emla_core.nodes.common) and offers it to the controller's guard. Without a usable state for t (a
-bad frame, reported: see common) it holds the last voltage over the period from t + Tc, still published so
+earlier (see emla_core.nodes) and offers it to the controller's guard. Without a usable state for t (a
+bad frame, reported: see emla_core.nodes) it holds the last voltage over the period from t + Tc, still published so
 the lockstep goes on. With `adapt_effects` it takes the effect estimate of the same stamp (/emla/effects) with
 each estimate: the friction and spring the identifier estimates online are compensated like the model's.
 """
@@ -23,7 +23,12 @@ from rclpy.qos import QoSProfile
 from emla_control import controller as law
 from emla_control.reference import StrokeReference
 from emla_core import messages, topics
-from emla_core.nodes import common
+from emla_core.nodes.faults import Faults
+from emla_core.nodes.frames import FrameSets, frame_publishers, subscribe_signal_frames
+from emla_core.nodes.node import EmlaNode
+from emla_core.nodes.param_specs import ACTUATOR_FIELDS, Spec, actuator_specs, declare, period_samples
+from emla_core.nodes.qos import LATCHED_QOS
+from emla_core.nodes.run import run
 from emla_core.parameters import ActuatorParameters
 from emla_msgs.msg import EffectEstimate, ParameterEstimate
 
@@ -32,37 +37,37 @@ BLOCK = 100  # control periods of reference evaluated at once
 REFERENCE_FRAME = 10
 # The estimates as they are published (LATCHED), but keeping several: each is taken an adaptation period after
 # its stamp, and the next one may have come by then.
-ESTIMATE_QOS = QoSProfile(depth=10, reliability=common.LATCHED_QOS.reliability,
-                          durability=common.LATCHED_QOS.durability)
+ESTIMATE_QOS = QoSProfile(depth=10, reliability=LATCHED_QOS.reliability,
+                          durability=LATCHED_QOS.durability)
 # Closed-loop bandwidth for the default 1 ms control period, where it tracks best (12 um RMS on the default
 # stroke in simulation); the library's default suits 10 kHz control and saturates the voltage at 1 kHz.
 BANDWIDTH = 150.0  # Hz
 
 SPECS = [
-    common.Spec('sample_period', 1e-4, 'sample period Ts, s', 1e-6, 1e-2),
-    common.Spec('control_period', topics.CONTROL_PERIOD, 'control period Tc (a whole multiple of Ts), s', 1e-6, 1.0),
-    common.Spec('bandwidth', BANDWIDTH, 'closed-loop bandwidth, Hz', 0.1, 1e4),
-    common.Spec('damping_ratio', law.DEFAULT_DAMPING, 'closed-loop damping ratio, 1', 0.05, 10.0),
-    common.Spec('observer_bandwidth', law.DEFAULT_OBSERVER_BANDWIDTH, 'velocity observer bandwidth, Hz', 0.1, 1e5),
-    common.Spec('stroke', StrokeReference.stroke, 'reference stroke, m', 1e-6, 1.0),
-    common.Spec('reference_period', StrokeReference.period, 'reference out-and-back period, s', 1e-4, 1e3),
-    common.Spec('transition', StrokeReference.transition, 'reference move duration (<= half a period), s',
+    Spec('sample_period', 1e-4, 'sample period Ts, s', 1e-6, 1e-2),
+    Spec('control_period', topics.CONTROL_PERIOD, 'control period Tc (a whole multiple of Ts), s', 1e-6, 1.0),
+    Spec('bandwidth', BANDWIDTH, 'closed-loop bandwidth, Hz', 0.1, 1e4),
+    Spec('damping_ratio', law.DEFAULT_DAMPING, 'closed-loop damping ratio, 1', 0.05, 10.0),
+    Spec('observer_bandwidth', law.DEFAULT_OBSERVER_BANDWIDTH, 'velocity observer bandwidth, Hz', 0.1, 1e5),
+    Spec('stroke', StrokeReference.stroke, 'reference stroke, m', 1e-6, 1.0),
+    Spec('reference_period', StrokeReference.period, 'reference out-and-back period, s', 1e-4, 1e3),
+    Spec('transition', StrokeReference.transition, 'reference move duration (<= half a period), s',
                 1e-5, 1e3),
-    common.Spec('measured_frames', False, 'take the measured frames of each period in one message on /emla/frames '
+    Spec('measured_frames', False, 'take the measured frames of each period in one message on /emla/frames '
                                           '(as `emla launch` runs it) instead of /emla/current and /emla/position'),
-    common.Spec('adaptive', True, 'take the identifier estimates (true) or keep the initial model (false)'),
-    common.Spec('adaptation_period', topics.ESTIMATE_PERIOD,
+    Spec('adaptive', True, 'take the identifier estimates (true) or keep the initial model (false)'),
+    Spec('adaptation_period', topics.ESTIMATE_PERIOD,
                 "take an estimate at multiples of this (a multiple of the identifier's publish_period), s",
                 1e-6, 1e6),
-    common.Spec('min_samples', law.DEFAULT_MIN_SAMPLES, 'reject estimates from fewer samples, samples',
+    Spec('min_samples', law.DEFAULT_MIN_SAMPLES, 'reject estimates from fewer samples, samples',
                 0, 2**31 - 1),
-    common.Spec('max_jump', law.DEFAULT_MAX_JUMP, 'reject estimates moving R, L, Km or m by more than this factor, 1',
+    Spec('max_jump', law.DEFAULT_MAX_JUMP, 'reject estimates moving R, L, Km or m by more than this factor, 1',
                 1.001, 1e3),
-    *common.actuator_specs('initial model'),
-    common.Spec('coulomb_force', 0.0, "the model's Coulomb friction, compensated by the law (0 = none), N", 0.0, 1e4),
-    common.Spec('spring_stiffness', 0.0, "the model's spring k (x - x0), either sign (0 = none), N/m", -1e7, 1e7),
-    common.Spec('spring_center', 0.0, "the model's spring rest position x0, m", -1.0, 1.0),
-    common.Spec('adapt_effects', False, 'adaptive: also take the Coulomb friction and spring stiffness the '
+    *actuator_specs('initial model'),
+    Spec('coulomb_force', 0.0, "the model's Coulomb friction, compensated by the law (0 = none), N", 0.0, 1e4),
+    Spec('spring_stiffness', 0.0, "the model's spring k (x - x0), either sign (0 = none), N/m", -1e7, 1e7),
+    Spec('spring_center', 0.0, "the model's spring rest position x0, m", -1.0, 1.0),
+    Spec('adapt_effects', False, 'adaptive: also take the Coulomb friction and spring stiffness the '
                 'identifier estimates online (/emla/effects; its load force is then the total at x = 0)'),
 ]
 
@@ -76,16 +81,16 @@ def warm_up(controller):
     trial.step_ahead(0.0, 0.0, (0.0,) * 4)
 
 
-class ControllerNode(common.EmlaNode):
+class ControllerNode(EmlaNode):
     NAME = 'controller'
 
     def __init__(self):
         super().__init__()
-        p = common.declare(self, SPECS)
-        self.samples_per_period = common.period_samples(p.sample_period, p.control_period)
+        p = declare(self, SPECS)
+        self.samples_per_period = period_samples(p.sample_period, p.control_period)
         self.sample_period = p.sample_period
         self.step_ns = topics.to_ns(p.sample_period)
-        model = ActuatorParameters(**{name: getattr(p, name) for name in common.ACTUATOR_FIELDS})
+        model = ActuatorParameters(**{name: getattr(p, name) for name in ACTUATOR_FIELDS})
         self.controller = law.InverseSystemController(
             model, bandwidth=p.bandwidth, damping=p.damping_ratio, control_period=p.control_period,
             supply_voltage=model.supply_voltage, observer_bandwidth=p.observer_bandwidth,
@@ -104,14 +109,14 @@ class ControllerNode(common.EmlaNode):
         self.effect_estimates = {} if self.controller.adapt_effects else None  # stamp -> EffectEstimate
         self.started = False  # the law has had a usable sample
         self.commanded = False
-        self.command = common.frame_publishers(self, {'voltage': topics.COMMAND_TOPIC,
+        self.command = frame_publishers(self, {'voltage': topics.COMMAND_TOPIC,
                                                       'reference': topics.REFERENCE_TOPIC})
-        self.states = common.FrameSets(
+        self.states = FrameSets(
             self, {name: f'{topics.MEASURED_FRAMES_TOPIC} {name}' if p.measured_frames else topics.MEASURED_TOPICS[name]
                    for name in ('current', 'position')},
-            self.on_states, common.Faults(self), p.sample_period, subscribe=not p.measured_frames)
+            self.on_states, Faults(self), p.sample_period, subscribe=not p.measured_frames)
         if p.measured_frames:
-            common.subscribe_signal_frames(self, topics.MEASURED_FRAMES_TOPIC, self.states)
+            subscribe_signal_frames(self, topics.MEASURED_FRAMES_TOPIC, self.states)
         if p.adaptive:
             self.create_subscription(ParameterEstimate, topics.PARAMETERS_TOPIC, self.on_estimate, ESTIMATE_QOS)
         if self.effect_estimates is not None:
@@ -194,7 +199,7 @@ class ControllerNode(common.EmlaNode):
 
 
 def main(args=None):
-    return common.run(ControllerNode, args)
+    return run(ControllerNode, args)
 
 
 if __name__ == '__main__':

@@ -10,7 +10,7 @@ A mapping 'NAME=TOPIC[:FIELD[INDEX]]' takes signal NAME from:
   emla_msgs/SampleFrame                its samples at its sample period
 Time comes from each message's header stamp where it has one, else from the time it was logged. The
 signals are then put on one grid (emla_core.sampling.align). The identifier node reads live topics with the
-same mapping (its input_topics; emla_core.nodes.common.StandardTopics), message by message: message_values.
+same mapping (its input_topics; emla_core.nodes.standard_topics.StandardTopics), message by message: message_values.
 """
 import re
 from dataclasses import dataclass

@@ -7,10 +7,10 @@ at most the split being written. SIGINT/SIGTERM: keep receiving until the topics
 latest /emla/plant/parameters values, as strings).
 
 Outside the loop, the recorder need not handle each message as it comes: it takes what came every 10 ms
-(its POLL_PERIOD, see common.EmlaNode), which spares it a wake-up per message.
+(its POLL_PERIOD, see EmlaNode), which spares it a wake-up per message.
 
 With `hold_start` (as `emla launch` runs it) the recorder subscribes to the plant's start topic
-(/emla/position, see common) only once each of its other topics (but the OPTIONAL ones of emla_core.topics)
+(/emla/position, see emla_core.nodes) only once each of its other topics (but the OPTIONAL ones of emla_core.topics)
 has a matched publisher: the lockstep plant cannot start before the recorder hears every node, so the bag
 begins at t = 0.
 """
@@ -23,33 +23,35 @@ from rclpy.serialization import deserialize_message
 from emla_core import messages, topics
 from emla_core.bag import BagWriter
 from emla_core.errors import InputError
-from emla_core.nodes import common
+from emla_core.nodes.node import EmlaNode
+from emla_core.nodes.param_specs import Spec, declare
+from emla_core.nodes.run import run
 from emla_core.parameters import PARAMETER_NAMES
 
 # Recorded topics -> message class (emla_core.topics.RECORDED). Every one is published reliable and
-# transient local (see common).
+# transient local (see emla_core.nodes).
 TOPICS = {topic: messages.message_class(msgtype) for topic, (msgtype, _) in topics.RECORDED.items()}
 # Unbounded queues: the writer may fall behind the frames (some 5000 messages/s at real time) for a while.
 QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE,
                  durability=DurabilityPolicy.TRANSIENT_LOCAL)
 SPECS = [
-    common.Spec('bag', '', 'output rosbag2 directory (must not exist or be empty)'),
-    common.Spec('scenario', '', 'scenario name stored in the bag custom data'),
-    common.Spec('split_size', 128 * 1024, 'bytes of messages per MCAP split; a SIGKILL loses at most one, B',
+    Spec('bag', '', 'output rosbag2 directory (must not exist or be empty)'),
+    Spec('scenario', '', 'scenario name stored in the bag custom data'),
+    Spec('split_size', 128 * 1024, 'bytes of messages per MCAP split; a SIGKILL loses at most one, B',
                 4096, 2**30),
-    common.Spec('hold_start', False, 'join the plant start barrier only once every other topic has a publisher'),
-    common.Spec('drain_time', 0.3, 'after SIGINT/SIGTERM, record until no message came for this long, s',
+    Spec('hold_start', False, 'join the plant start barrier only once every other topic has a publisher'),
+    Spec('drain_time', 0.3, 'after SIGINT/SIGTERM, record until no message came for this long, s',
                 0.0, 10.0),
 ]
 
 
-class Recorder(common.EmlaNode):
+class Recorder(EmlaNode):
     NAME = 'recorder'
     POLL_PERIOD = 0.01  # s (see the module doc)
 
     def __init__(self):
         super().__init__()
-        self.config = common.declare(self, SPECS)
+        self.config = declare(self, SPECS)
         if not self.config.bag:
             raise InputError('parameter `bag` (output directory) is required')
         self.bag = BagWriter(self.config.bag, split_size=self.config.split_size,
@@ -105,7 +107,7 @@ class Recorder(common.EmlaNode):
 
 
 def main(args=None):
-    return common.run(Recorder, args)
+    return run(Recorder, args)
 
 
 if __name__ == '__main__':

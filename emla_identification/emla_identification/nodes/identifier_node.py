@@ -5,8 +5,8 @@ the recursion of `emla identify --model arx`: from theta = 0 and P = 1e6 I, with
 Publishes /emla/parameters (latched; with model arx /emla/arx_model instead: a, b, poles, zeros, fit and MSE;
 with `effects` or a `model_file` also /emla/effects, the effects' parameters estimated along, same stamps)
 at every multiple of `publish_period` that ends a control period, stamped with the end of the data used, and a
-final estimate at the end time /emla/plant/done announces (see emla_core.nodes.common); /diagnostics with the
-first estimate, then every second of sample time, and with the final one. Bad frames (see common) are
+final estimate at the end time /emla/plant/done announces (see emla_core.nodes); /diagnostics with the
+first estimate, then every second of sample time, and with the final one. Bad frames (see emla_core.nodes) are
 reported and skipped. Non-finite samples: the grey-box estimator gets only finite samples, and a gap() wherever
 some are missing; the ARX one gets them in place and skips the regression rows they are in (as identify_arx
 does), so its last model equals `emla identify --model arx` on the same data.
@@ -15,7 +15,7 @@ Its inputs are the measured /emla/ SampleFrames, or with `input_topics` a real d
 message types, e.g. ['voltage=/drive/voltage', 'current=/drive/current', 'position=/joint_states:position[slider]']
 (the syntax of `emla identify --topics`; with model arx only the input and output need mapping): each sample
 goes on the sample_period grid by its message's header stamp, else its receive time, then takes the frames'
-path (common.StandardTopics). The time stamps put publish instants and the done signal on that time line too.
+path (StandardTopics). The time stamps put publish instants and the done signal on that time line too.
 """
 import math
 import sys
@@ -28,36 +28,43 @@ from std_msgs.msg import Header
 
 from emla_core import messages, topics
 from emla_core.errors import InputError
-from emla_core.nodes import common
+from emla_core.nodes.alignment import AlignedSamples
+from emla_core.nodes.faults import Faults
+from emla_core.nodes.frames import subscribe_signal_frames
+from emla_core.nodes.node import EmlaNode
+from emla_core.nodes.param_specs import Spec, declare
+from emla_core.nodes.qos import DIAGNOSTICS_QOS, LATCHED_QOS
+from emla_core.nodes.run import run
+from emla_core.nodes.standard_topics import StandardTopics
 from emla_identification.arx import DEFAULT_ORDERS, DEFAULT_SIGNALS, ArxEstimator
 from emla_identification.online import OnlineIdentifier
 from emla_identification.physical import MODEL_PARAMETERS
 from emla_msgs.msg import ArxModel, EffectEstimate, ParameterEstimate
 
 SPECS = [
-    common.Spec('sample_period', 1e-4, 'sample period Ts of the inputs (the grid of input_topics), s', 1e-6, 1e-2),
-    common.Spec('model', 'full', f'grey-box model, one of {sorted(MODEL_PARAMETERS)}, or arx (black box: orders, '
+    Spec('sample_period', 1e-4, 'sample period Ts of the inputs (the grid of input_topics), s', 1e-6, 1e-2),
+    Spec('model', 'full', f'grey-box model, one of {sorted(MODEL_PARAMETERS)}, or arx (black box: orders, '
                                  'input, output; published on /emla/arx_model)'),
-    common.Spec('forgetting', 1.0, 'RLS forgetting factor lambda (1 = no forgetting), 1', 0.5, 1.0),
-    common.Spec('memory_time', 0.0,
+    Spec('forgetting', 1.0, 'RLS forgetting factor lambda (1 = no forgetting), 1', 0.5, 1.0),
+    Spec('memory_time', 0.0,
                 'memory time constant tau instead of a forgetting factor, lambda = 1 - Ts/tau (0 = unused), s',
                 0.0, 1e6),
-    common.Spec('orders', list(DEFAULT_ORDERS),
+    Spec('orders', list(DEFAULT_ORDERS),
                 'model arx: [na, nb, nk], the output lags, input lags and input delay (samples)'),
-    common.Spec('input', DEFAULT_SIGNALS[0], f'model arx: the input signal u, one of {list(topics.SIGNALS)}'),
-    common.Spec('output', DEFAULT_SIGNALS[1], f'model arx: the output signal y, one of {list(topics.SIGNALS)}'),
-    common.Spec('measured_frames', False, 'take the measured frames of each period in one message on /emla/frames '
+    Spec('input', DEFAULT_SIGNALS[0], f'model arx: the input signal u, one of {list(topics.SIGNALS)}'),
+    Spec('output', DEFAULT_SIGNALS[1], f'model arx: the output signal y, one of {list(topics.SIGNALS)}'),
+    Spec('measured_frames', False, 'take the measured frames of each period in one message on /emla/frames '
                                           '(as `emla launch` runs it) instead of /emla/{voltage,current,position}'),
-    common.Spec('effects', Parameter.Type.STRING_ARRAY,
+    Spec('effects', Parameter.Type.STRING_ARRAY,
                 'grey box: effects estimated online with the nominal parameters, published on /emla/effects: those '
                 'of the physics layer with an online column, or followed by the memory (docs/physics.md section 6; '
                 'an effect that cannot run online is refused with its reason)'),
-    common.Spec('model_file', '', 'grey box: a model file (emla discrepancy --model-out) whose effects to estimate '
+    Spec('model_file', '', 'grey box: a model file (emla discrepancy --model-out) whose effects to estimate '
                                   'online, as `effects` (which adds to them)'),
-    common.Spec('publish_period', topics.ESTIMATE_PERIOD,
+    Spec('publish_period', topics.ESTIMATE_PERIOD,
                 'publish an estimate at multiples of this time (of the samples: simulated, or the inputs\' stamps), s',
                 1e-6, 1e6),
-    common.Spec('input_topics', Parameter.Type.STRING_ARRAY,
+    Spec('input_topics', Parameter.Type.STRING_ARRAY,
                 'inputs from topics of standard message types instead of /emla/{voltage,current,position} (empty): '
                 'NAME=TOPIC[:FIELD[INDEX]] for voltage, current and position, as `emla identify --topics` '
                 '(Float64/32, their MultiArrays, JointState, SampleFrame; type and QoS from the publishers; time: '
@@ -127,15 +134,15 @@ def standard_inputs(mapping, signals):
     return inputs
 
 
-class IdentifierNode(common.EmlaNode):
+class IdentifierNode(EmlaNode):
     NAME = 'identifier'
     # Outside the loop (an adaptive controller takes each estimate an adaptation period after its stamp), it
-    # takes the frames that came every POLL_PERIOD instead of waking for each of them (see common.EmlaNode).
+    # takes the frames that came every POLL_PERIOD instead of waking for each of them (see EmlaNode).
     POLL_PERIOD = 0.003  # s
 
     def __init__(self):
         super().__init__()
-        p = common.declare(self, SPECS)
+        p = declare(self, SPECS)
         self.arx = arx_signals(p)
         self.signals = self.arx or topics.SIGNALS  # what the estimator is fed, in its update()'s order
         self.inputs = standard_inputs(p.input_topics, self.signals)
@@ -160,23 +167,23 @@ class IdentifierNode(common.EmlaNode):
         self.published = None  # stamp of the latest estimate
         self.diagnosed = None  # stamp of the latest /diagnostics status
         self.end = None  # end of the run, from /emla/plant/done
-        self.estimates = self.create_publisher(ArxModel, topics.ARX_MODEL_TOPIC, common.LATCHED_QOS) if self.arx \
-            else self.create_publisher(ParameterEstimate, topics.PARAMETERS_TOPIC, common.LATCHED_QOS)
+        self.estimates = self.create_publisher(ArxModel, topics.ARX_MODEL_TOPIC, LATCHED_QOS) if self.arx \
+            else self.create_publisher(ParameterEstimate, topics.PARAMETERS_TOPIC, LATCHED_QOS)
         self.effect_estimates = None if self.arx or not self.identifier.effects else \
-            self.create_publisher(EffectEstimate, topics.EFFECTS_TOPIC, common.LATCHED_QOS)
-        self.diagnostics = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS_TOPIC, common.DIAGNOSTICS_QOS)
-        faults = common.Faults(self)
+            self.create_publisher(EffectEstimate, topics.EFFECTS_TOPIC, LATCHED_QOS)
+        self.diagnostics = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS_TOPIC, DIAGNOSTICS_QOS)
+        faults = Faults(self)
         together = p.measured_frames and not self.inputs
-        self.measured = common.AlignedSamples(
+        self.measured = AlignedSamples(
             self, {name: spec.describe() for name, spec in self.inputs.items()}
             or {name: f'{topics.MEASURED_FRAMES_TOPIC} {name}' if together else topics.MEASURED_TOPICS[name]
                 for name in self.signals},
             self.on_samples, faults, p.sample_period, self.publish_step, subscribe=not (self.inputs or together))
         if self.inputs:
-            common.StandardTopics(self, self.inputs, self.measured.receive, faults, p.sample_period)
+            StandardTopics(self, self.inputs, self.measured.receive, faults, p.sample_period)
         elif together:
-            common.subscribe_signal_frames(self, topics.MEASURED_FRAMES_TOPIC, self.measured)
-        self.create_subscription(Time, topics.DONE_TOPIC, self.on_done, common.LATCHED_QOS)
+            subscribe_signal_frames(self, topics.MEASURED_FRAMES_TOPIC, self.measured)
+        self.create_subscription(Time, topics.DONE_TOPIC, self.on_done, LATCHED_QOS)
 
     def ready(self):
         waiting = ', '.join(dict.fromkeys(spec.topic for spec in self.inputs.values()))
@@ -249,7 +256,7 @@ class IdentifierNode(common.EmlaNode):
 
 
 def main(args=None):
-    return common.run(IdentifierNode, args)
+    return run(IdentifierNode, args)
 
 
 if __name__ == '__main__':

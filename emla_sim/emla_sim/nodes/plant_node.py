@@ -1,4 +1,4 @@
-"""The plant node: the simulated actuator, one control period per voltage command (lockstep, see common).
+"""The plant node: the simulated actuator, one control period per voltage command (lockstep, see emla_core.nodes).
 
 Each period's true frames go to the sensor in one SignalFrames message (/emla/plant/frames); on
 /emla/plant/{voltage,current,position}, which only a recorder reads, they go with the true parameters, in
@@ -17,7 +17,11 @@ from rosgraph_msgs.msg import Clock
 
 from emla_core import messages, topics
 from emla_core.errors import InputError
-from emla_core.nodes import common
+from emla_core.nodes.frames import frame_publishers
+from emla_core.nodes.node import EmlaNode
+from emla_core.nodes.param_specs import ACTUATOR_FIELDS, Spec, actuator_specs, declare, period_samples
+from emla_core.nodes.qos import CLOCK_QOS, FRAME_QOS, LATCHED_QOS
+from emla_core.nodes.run import run
 from emla_core.parameters import PARAMETER_NAMES, ActuatorParameters
 from emla_msgs.msg import ParameterEstimate, SampleFrame, SignalFrames
 from emla_core.physics import EFFECTS, make_effect
@@ -25,26 +29,26 @@ from emla_sim.effects import ParameterChange
 from emla_sim.plant import Plant
 
 SPECS = [
-    common.Spec('sample_period', 1e-4, 'sample period Ts, s', 1e-6, 1e-2),
-    common.Spec('control_period', topics.CONTROL_PERIOD, 'control period Tc (a whole multiple of Ts; samples per frame = Tc/Ts), s',
+    Spec('sample_period', 1e-4, 'sample period Ts, s', 1e-6, 1e-2),
+    Spec('control_period', topics.CONTROL_PERIOD, 'control period Tc (a whole multiple of Ts; samples per frame = Tc/Ts), s',
                 1e-6, 1.0),
-    common.Spec('duration', 1.0, 'simulated time to run, then publish done and exit; 0 = until stopped, s',
+    Spec('duration', 1.0, 'simulated time to run, then publish done and exit; 0 = until stopped, s',
                 0.0, 1e6),
-    common.Spec('initial_position', 0.0, 'position at t = 0 (at rest, no current), m', -1.0, 1.0),
-    *common.actuator_specs('true'),
-    common.Spec('effects', Parameter.Type.STRING_ARRAY, f'effects by name, of {sorted(n for n, e in EFFECTS.items() if not e.simulation_refusal)}'),
-    common.Spec('effect_parameters', Parameter.Type.STRING_ARRAY,
+    Spec('initial_position', 0.0, 'position at t = 0 (at rest, no current), m', -1.0, 1.0),
+    *actuator_specs('true'),
+    Spec('effects', Parameter.Type.STRING_ARRAY, f'effects by name, of {sorted(n for n, e in EFFECTS.items() if not e.simulation_refusal)}'),
+    Spec('effect_parameters', Parameter.Type.STRING_ARRAY,
                 "settings of those effects, 'effect.field=value' (SI units, see docs/physics.md)"),
-    common.Spec('change_times', Parameter.Type.DOUBLE_ARRAY, 'times of step parameter changes, s'),
-    common.Spec('change_parameters', Parameter.Type.STRING_ARRAY,
+    Spec('change_times', Parameter.Type.DOUBLE_ARRAY, 'times of step parameter changes, s'),
+    Spec('change_parameters', Parameter.Type.STRING_ARRAY,
                 f'parameter each change scales, of {PARAMETER_NAMES}'),
-    common.Spec('change_factors', Parameter.Type.DOUBLE_ARRAY, 'factor each change multiplies it by, 1'),
-    common.Spec('parameters_period', topics.ESTIMATE_PERIOD,
+    Spec('change_factors', Parameter.Type.DOUBLE_ARRAY, 'factor each change multiplies it by, 1'),
+    Spec('parameters_period', topics.ESTIMATE_PERIOD,
                 'publish the true parameters and frames at multiples of this (and after each change), s', 1e-6, 1e6),
-    common.Spec('start_subscribers', 2, 'start once /emla/position has this many subscriptions (and, if > 0, the '
+    Spec('start_subscribers', 2, 'start once /emla/position has this many subscriptions (and, if > 0, the '
                 'frames for the sensor and the commands are matched), 1', 0, 1000),
-    common.Spec('frames_subscribers', 0, 'and /emla/frames (the measured frames in one message) this many, 1', 0, 1000),
-    common.Spec('done_subscribers', 1, 'and /emla/plant/done this many (the plant leaves once they acknowledged '
+    Spec('frames_subscribers', 0, 'and /emla/frames (the measured frames in one message) this many, 1', 0, 1000),
+    Spec('done_subscribers', 1, 'and /emla/plant/done this many (the plant leaves once they acknowledged '
                 'it; a reader found later would never get it), 1', 0, 1000),
 ]
 
@@ -69,13 +73,13 @@ def changes_from(times, parameters, factors):
     return [ParameterChange(t, name, factor) for t, name, factor in zip(times, parameters, factors)]
 
 
-class PlantNode(common.EmlaNode):
+class PlantNode(EmlaNode):
     NAME = 'plant'
 
     def __init__(self):
         super().__init__()
-        p = common.declare(self, SPECS)
-        self.samples_per_period = common.period_samples(p.sample_period, p.control_period)
+        p = declare(self, SPECS)
+        self.samples_per_period = period_samples(p.sample_period, p.control_period)
         self.step = topics.to_ns(p.sample_period)
         self.periods = round(p.duration / p.control_period) if p.duration else None
         if self.periods == 0:
@@ -83,7 +87,7 @@ class PlantNode(common.EmlaNode):
         self.awaited_readers = {topics.START_TOPIC: p.start_subscribers,
                                 topics.MEASURED_FRAMES_TOPIC: p.frames_subscribers, topics.DONE_TOPIC: p.done_subscribers}
         self.changes = changes_from(p.change_times, p.change_parameters, p.change_factors)
-        params = ActuatorParameters(**{name: getattr(p, name) for name in common.ACTUATOR_FIELDS})
+        params = ActuatorParameters(**{name: getattr(p, name) for name in ACTUATOR_FIELDS})
         self.supply = params.supply_voltage
         self.plant = Plant(params, effects_from(p.effects, p.effect_parameters), self.changes,
                            initial_state=(0.0, p.initial_position, 0.0))
@@ -92,14 +96,14 @@ class PlantNode(common.EmlaNode):
         self.period = 0
         self.wall_start = None  # wall clock at the first command (for the realtime factor)
         self.commands = {}  # stamp -> voltages
-        self.frames = common.frame_publishers(self, topics.PLANT_TOPICS)
+        self.frames = frame_publishers(self, topics.PLANT_TOPICS)
         self.true_frames = {name: [] for name in topics.SIGNALS}  # (stamp, samples) not yet on PLANT_TOPICS
-        self.together = self.create_publisher(SignalFrames, topics.PLANT_FRAMES_TOPIC, common.FRAME_QOS)
-        self.truth = self.create_publisher(ParameterEstimate, topics.TRUE_PARAMETERS_TOPIC, common.LATCHED_QOS)
-        self.done = self.create_publisher(Time, topics.DONE_TOPIC, common.LATCHED_QOS)
-        self.clock = self.create_publisher(Clock, topics.CLOCK_TOPIC, common.CLOCK_QOS)
+        self.together = self.create_publisher(SignalFrames, topics.PLANT_FRAMES_TOPIC, FRAME_QOS)
+        self.truth = self.create_publisher(ParameterEstimate, topics.TRUE_PARAMETERS_TOPIC, LATCHED_QOS)
+        self.done = self.create_publisher(Time, topics.DONE_TOPIC, LATCHED_QOS)
+        self.clock = self.create_publisher(Clock, topics.CLOCK_TOPIC, CLOCK_QOS)
         self.commands_in = self.create_subscription(SampleFrame, topics.COMMAND_TOPIC, self.on_command,
-                                                    common.FRAME_QOS, raw=True)
+                                                    FRAME_QOS, raw=True)
         self.barrier = self.create_timer(0.02, self.try_start)
         self.get_logger().info('waiting for ' + ' and '.join(f'{n} subscription(s) of {topic}'
                                                              for topic, n in self.awaited_readers.items()))
@@ -178,11 +182,11 @@ class PlantNode(common.EmlaNode):
         self.done.publish(messages.time_msg(self.now))
         self.get_logger().info(f'done at t = {self.now * 1e-9:g} s; from the first command to the last frame: '
                                f'wall time {wall:.3f} s, realtime factor {self.now * 1e-9 / wall:.3f}')
-        self.finished = True  # common.run exits once the readers acknowledged
+        self.finished = True  # run exits once the readers acknowledged
 
 
 def main(args=None):
-    return common.run(PlantNode, args)
+    return run(PlantNode, args)
 
 
 if __name__ == '__main__':

@@ -1,9 +1,9 @@
-"""The sensor node: the DSP's view of the plant (emla_sim.sensor), frame by frame (see common).
+"""The sensor node: the DSP's view of the plant (emla_sim.sensor), frame by frame (see emla_core.nodes).
 
 The plant's true frames of each period come in one message (/emla/plant/frames): the current and position
 frames are measured (delay, noise, quantisation) onto /emla/current and /emla/position, the voltage frame
 passes unchanged onto /emla/voltage (the DSP knows what it applied); the three go together on /emla/frames
-too (a SignalFrames: one delivery per period for the controller and identifier of a launch). State frames it cannot use (see common)
+too (a SignalFrames: one delivery per period for the controller and identifier of a launch). State frames it cannot use (see emla_core.nodes)
 give empty measured frames with their stamp: the period goes unmeasured, the lockstep goes on.
 """
 import sys
@@ -11,36 +11,41 @@ import sys
 import numpy as np
 
 from emla_core import messages, topics
-from emla_core.nodes import common
+from emla_core.nodes.faults import Faults
+from emla_core.nodes.frames import FrameSets, frame_publishers
+from emla_core.nodes.node import EmlaNode
+from emla_core.nodes.param_specs import Spec, declare
+from emla_core.nodes.qos import FRAME_QOS
+from emla_core.nodes.run import run
 from emla_msgs.msg import SignalFrames
 from emla_sim.sensor import Sensor, SensorConfig
 
 STATES = ('current', 'position')
 
 SPECS = [
-    common.Spec('current_noise_std', SensorConfig.current_noise_std, 'current noise (Gaussian), std, A', 0.0, 100.0),
-    common.Spec('position_noise_std', SensorConfig.position_noise_std,
+    Spec('current_noise_std', SensorConfig.current_noise_std, 'current noise (Gaussian), std, A', 0.0, 100.0),
+    Spec('position_noise_std', SensorConfig.position_noise_std,
                 'position noise (Gaussian, before quantisation), std, m', 0.0, 1.0),
-    common.Spec('position_resolution', SensorConfig.position_resolution, 'position LSB; 0 = not quantised, m',
+    Spec('position_resolution', SensorConfig.position_resolution, 'position LSB; 0 = not quantised, m',
                 0.0, 1.0),
-    common.Spec('delay_samples', SensorConfig.delay_samples, 'measurement delay, samples', 0, 1_000_000),
-    common.Spec('seed', SensorConfig.seed, 'seed of the noise generator', 0, 2**31 - 1),
+    Spec('delay_samples', SensorConfig.delay_samples, 'measurement delay, samples', 0, 1_000_000),
+    Spec('seed', SensorConfig.seed, 'seed of the noise generator', 0, 2**31 - 1),
 ]
 
 
-class SensorNode(common.EmlaNode):
+class SensorNode(EmlaNode):
     NAME = 'sensor'
 
     def __init__(self):
         super().__init__()
-        p = common.declare(self, SPECS)
+        p = declare(self, SPECS)
         self.sensor = Sensor(SensorConfig(**{spec.name: getattr(p, spec.name) for spec in SPECS}))
-        self.outputs = common.frame_publishers(self, topics.MEASURED_TOPICS)
-        self.together = self.create_publisher(SignalFrames, topics.MEASURED_FRAMES_TOPIC, common.FRAME_QOS)
-        self.states = common.FrameSets(self, {name: f'{topics.PLANT_FRAMES_TOPIC} {name}' for name in STATES},
-                                       self.measure, common.Faults(self), subscribe=False)
+        self.outputs = frame_publishers(self, topics.MEASURED_TOPICS)
+        self.together = self.create_publisher(SignalFrames, topics.MEASURED_FRAMES_TOPIC, FRAME_QOS)
+        self.states = FrameSets(self, {name: f'{topics.PLANT_FRAMES_TOPIC} {name}' for name in STATES},
+                                       self.measure, Faults(self), subscribe=False)
         self.voltage = None  # (stamp, samples) of the period being measured
-        self.create_subscription(SignalFrames, topics.PLANT_FRAMES_TOPIC, self.on_frames, common.FRAME_QOS, raw=True)
+        self.create_subscription(SignalFrames, topics.PLANT_FRAMES_TOPIC, self.on_frames, FRAME_QOS, raw=True)
 
     def on_frames(self, cdr):
         frames = messages.read_signal_frames_cdr(cdr)
@@ -61,7 +66,7 @@ class SensorNode(common.EmlaNode):
 
 
 def main(args=None):
-    return common.run(SensorNode, args)
+    return run(SensorNode, args)
 
 
 if __name__ == '__main__':
