@@ -75,23 +75,23 @@ late (start-up) still gets them; in the loop, at most two periods' messages are 
 
 Done signal: with duration > 0 the plant advances round(duration / Tc) periods, publishes the final frames,
 the final true parameters and /emla/plant/done (builtin_interfaces/Time: the end time, latched), and exits 0
-once every reader acknowledged its messages (see node.wait_for_acknowledgements). The identifier then publishes its
-final estimate stamped with that end time (if that was not a publishing instant anyway): the last
+once every reader acknowledged its messages (see node.wait_for_acknowledgements). The identifier then
+publishes its final estimate stamped with that end time (if that was not a publishing instant anyway): the last
 /emla/parameters message covers every sample the plant produced. A launcher waits for it, then stops the
 other nodes with SIGTERM.
 
 Bad frames (a real sensor stream loses some): the sensor, controller and identifier keep running through lost,
-empty, non-finite and wrong-period frames and stamps that jump back; each such fault is a warning in the log
-and a count on /diagnostics (faults.Faults; frames.FrameSets and alignment.AlignedSamples find them and resynchronise). The
-sensor publishes empty frames for a period whose plant frames it cannot use (non-finite samples it measures
-as they are); the controller holds its last voltage over the period after a state it lacks and publishes it,
-so the lockstep goes on (it does not wait for an estimate then); the identifier skips the instants it lacks
-usable samples for, and none of its regression rows spans them. A frame lost outright inside the lockstep
-stalls it: the next one needs the command it would have led to.
+empty, non-finite and wrong-period frames and stamps that jump back; each such fault is a warning in the log and
+a count on /diagnostics (faults.Faults; frames.FrameSets and alignment.AlignedSamples find them and
+resynchronise). The sensor publishes empty frames for a period whose plant frames it cannot use (non-finite
+samples it measures as they are); the controller holds its last voltage over the period after a state it lacks
+and publishes it, so the lockstep goes on (it does not wait for an estimate then); the identifier skips the
+instants it lacks usable samples for, and none of its regression rows spans them. A frame lost outright inside
+the lockstep stalls it: the next one needs the command it would have led to.
 
-Standard topics: the identifier can read a real drive's topics of standard message types instead of the
-measured frames (its input_topics; standard_topics.StandardTopics): each message becomes a frame on the sample grid (by its
-header stamp, else its receive time), so the same faults are found and survived.
+Standard topics: the identifier can read a real drive's topics of standard message types instead of the measured
+frames (its input_topics; standard_topics.StandardTopics): each message becomes a frame on the sample grid (by
+its header stamp, else its receive time), so the same faults are found and survived.
 
 Each node: parameters declared read-only with descriptors (range, units in the description), defaults in the
 package's config/<node>.yaml; once constructed (warmed up, subscribed) it says 'NAME: ready (its topics)' on
