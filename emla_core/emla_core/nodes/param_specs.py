@@ -50,8 +50,8 @@ ACTUATOR_FIELDS = tuple(_RANGES)  # the ActuatorParameters fields
 
 def actuator_specs(what):
     """Specs of the actuator parameters (Table 1 defaults); `what` starts their descriptions."""
-    return [Spec(name, getattr(TABLE1, name), f'{what} {name.replace("_", " ")}, {PARAMETER_UNITS[name]}', *_RANGES[name])
-            for name in _RANGES]
+    return [Spec(name, getattr(TABLE1, name), f'{what} {name.replace("_", " ")}, {PARAMETER_UNITS[name]}',
+                 *_RANGES[name]) for name in _RANGES]
 
 
 def declare(node, specs):
