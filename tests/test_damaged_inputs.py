@@ -14,13 +14,13 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 from mcap.writer import CompressionType, IndexType, Writer
+from ros_isolation import VENV_BIN, isolated_env, processes
+from test_launch import children, shm_in_use
 
 from emla_core.bag import iter_chunks, read_bag, typestore, write_recording, writer
 from emla_core.bag.reader import iter_serialized
 from emla_core.errors import InputError
 from emla_sim.datasets import closed_loop
-from ros_isolation import VENV_BIN, isolated_env, processes
-from test_launch import children, shm_in_use
 
 pytestmark = pytest.mark.timeout(300)
 EMLA = str(VENV_BIN / 'emla')

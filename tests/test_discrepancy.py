@@ -11,7 +11,13 @@ import pytest
 
 from emla_core.errors import InputError
 from emla_core.parameters import TABLE1
-from emla_core.physics import CoulombFriction, ForceConstantVariation, InductanceSaturation, ResistanceDrift, ReturnSpring
+from emla_core.physics import (
+    CoulombFriction,
+    ForceConstantVariation,
+    InductanceSaturation,
+    ResistanceDrift,
+    ReturnSpring,
+)
 from emla_core.recording import Recording
 from emla_identification.discrepancy import CANDIDATES, Candidate, diagnose, register_candidate
 from emla_identification.discrepancy.residuals import binned, cross_correlation, whiteness
@@ -31,7 +37,8 @@ def hidden(effect, rng):
         'resistance_drift': (ResistanceDrift.fast(spread(1.0), thermal_resistance=spread(10.0)),),
         'inductance_saturation': (InductanceSaturation.curve(TABLE1.inductance, spread(8.0)),),  # L -20 % at 4 A
         # Km -4 % at 3 mm
-        'force_constant_variation': (ForceConstantVariation(emf_constant_curvature=-spread(4000.0) * TABLE1.emf_constant),),
+        'force_constant_variation':
+            (ForceConstantVariation(emf_constant_curvature=-spread(4000.0) * TABLE1.emf_constant),),
         'sensor_delay': (),
     }[effect]
 

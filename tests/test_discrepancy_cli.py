@@ -17,9 +17,9 @@ import pytest
 
 from emla_core.bag import write_recording
 from emla_core.data import load
+from emla_core.physics import EFFECTS, CoulombFriction
 from emla_core.recording import Recording, write_csv
 from emla_sim.datasets import closed_loop
-from emla_core.physics import EFFECTS, CoulombFriction
 
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLE = REPO / 'bags' / 'example_discrepancy'

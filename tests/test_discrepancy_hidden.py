@@ -12,12 +12,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from independent_plant import random_parameters, record
+from ros_isolation import REPO
 
 from emla_core.bag import write_recording
 from emla_core.data import load
 from emla_identification.discrepancy import CANDIDATES, Candidate, diagnose, register_candidate
-from independent_plant import record, random_parameters
-from ros_isolation import REPO
 
 NOMINAL = ('resistance', 'inductance', 'emf_constant', 'mass', 'damping')
 

@@ -6,12 +6,12 @@ import subprocess
 
 import numpy as np
 import pytest
+from independent_data import EXAMPLES, TRUTH, simulate, write_bag, write_csv, write_mat
+from ros_isolation import VENV_BIN
 
 from emla_core.errors import InputError
 from emla_core.sampling import align, steady_period
 from emla_core.units import parse_unit, split_header
-from independent_data import EXAMPLES, TRUTH, simulate, write_bag, write_csv, write_mat
-from ros_isolation import VENV_BIN
 
 CORE = ('resistance', 'inductance', 'emf_constant', 'mass', 'damping')
 BAG_TOPICS = 'voltage=/drive/voltage,current=/drive/current,position=/joint_states:position[slider]'
@@ -111,7 +111,7 @@ def test_a_unit_or_sign_slip_is_warned_about_with_its_fix(tmp_path, data, change
         assert_truth(result)
     else:
         assert any(cause in w for w in result['warnings']), result['warnings']
-        assert f'emla identify: warning: ' in err and cause in err
+        assert 'emla identify: warning: ' in err and cause in err
 
 
 def test_missing_samples_are_named_not_bridged(tmp_path, data):

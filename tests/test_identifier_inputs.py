@@ -8,17 +8,17 @@ import subprocess
 import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray
-from emla_msgs.msg import ParameterEstimate, SampleFrame
 from rclpy.qos import QoSProfile
+from ros_isolation import isolated_env, processes
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
+from test_node_faults import DITHER, input_faults
+from test_nodes import EMLA, MS, params_file, ros_node, spin_until
 
 from emla_core import messages, topics
 from emla_identification.greybox import identify
+from emla_msgs.msg import ParameterEstimate, SampleFrame
 from emla_sim.datasets import closed_loop
-from ros_isolation import isolated_env, processes
-from test_node_faults import DITHER, input_faults
-from test_nodes import EMLA, MS, params_file, ros_node, spin_until
 
 pytestmark = pytest.mark.timeout(180)
 
@@ -74,7 +74,7 @@ def run_on_topics(tmp_path, drive, end, faults=None):
 
         for topic, msg in drive:
             ahead = topics.stamp_to_ns(msg.header.stamp) - WINDOW * BLOCK * STEP
-            spin_until(executor, lambda: covered() >= ahead, 60, [proc])
+            spin_until(executor, lambda ahead=ahead: covered() >= ahead, 60, [proc])
             publishers[topic].publish(msg)
         spin_until(executor, lambda: covered() == end, 60, [proc])
         if faults:

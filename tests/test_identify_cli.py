@@ -4,14 +4,14 @@ import subprocess
 
 import numpy as np
 import pytest
+from ros_isolation import VENV_BIN
 
 from emla_cli.cli import main
 from emla_core.bag import write_recording
-from emla_core.parameters import TABLE1
 from emla_core.data import read_csv
+from emla_core.parameters import TABLE1
 from emla_core.recording import write_csv
 from emla_sim.datasets import closed_loop, force_driven
-from ros_isolation import VENV_BIN
 
 TRUTH = TABLE1.replace(load_force=5.0)
 GREYBOX_KEYS = {'model', 'samples', 'sample_period', 'parameters', 'std', 'warnings'}

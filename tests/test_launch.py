@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 import yaml
 from mcap_ros2.reader import read_ros2_messages
+from ros_isolation import VENV_BIN, processes
 from rosbags.highlevel import AnyReader
 
 from emla_bench import scenarios
 from emla_core import messages
 from emla_core.bag import iter_messages, read_bag, typestore
-from ros_isolation import VENV_BIN, processes
 
 pytestmark = pytest.mark.timeout(300)
 DURATION = 2.0
@@ -207,7 +207,8 @@ def bag_structure(bag):
 
 def test_a_simulated_bag_is_laid_out_like_a_launched_one(runs, tmp_path):
     simulated = tmp_path / 'simulated'
-    subprocess.run([str(VENV_BIN / 'emla'), 'simulate', 'default', '--duration', str(DURATION), '--bag', str(simulated)],
+    subprocess.run([str(VENV_BIN / 'emla'), 'simulate', 'default', '--duration', str(DURATION),
+                    '--bag', str(simulated)],
                    check=True, capture_output=True, timeout=120)
     launched_topics, launched_lengths, launched_covariances = bag_structure(runs['summaries'][0]['bag'])
     topics, lengths, covariances = bag_structure(simulated)

@@ -12,14 +12,14 @@ import subprocess
 import numpy as np
 import pytest
 import yaml
+from ros_isolation import VENV_BIN
 
 from emla_bench import scenarios
 from emla_bench.node_parameters import scenario_parameters
 from emla_core.bag import write_recording
 from emla_core.model_file import read
-from emla_sim.datasets import closed_loop, random_parameters
 from emla_core.physics import CoulombFriction
-from ros_isolation import VENV_BIN
+from emla_sim.datasets import closed_loop, random_parameters
 
 NOMINAL = ('resistance', 'inductance', 'emf_constant', 'mass', 'damping')
 PARAMS = random_parameters(np.random.default_rng(4), spread=0.2)     # one actuator, two records of it
@@ -98,7 +98,8 @@ def test_launch_gives_the_plant_node_the_models_effects(learned):
     tmp, _ = learned
     scenario = scenarios.get('default').with_model(read(tmp / 'M.yaml'))
     plant = scenario_parameters(scenario)['plant']
-    assert plant['effects'] == ['coulomb_friction'] and plant['resistance'] == read(tmp / 'M.yaml').values()['resistance']
+    assert plant['effects'] == ['coulomb_friction']
+    assert plant['resistance'] == read(tmp / 'M.yaml').values()['resistance']
     assert any(p.startswith('coulomb_friction.coulomb_force=') for p in plant['effect_parameters'])
     controller = scenario_parameters(scenario)['controller']    # and the controller compensates it
     assert controller['coulomb_force'] == read(tmp / 'M.yaml').effects[0].values()['coulomb_force']
@@ -111,7 +112,8 @@ def test_launch_gives_the_plant_node_the_models_effects(learned):
     ('emla_model: 1\nsample_period: 1e-4\nparameters: {resistence: 4}\n', 'unknown parameter(s) resistence'),
     ('emla_model: 1\nsample_period: fast\n', 'sample_period must be a finite number'),
     ('emla_model: 1\nsample_period: -1e-4\n', 'sample_period must be within (0, 10] s'),
-    ('emla_model: 1\nsample_period: 1e-4\neffects: [{effect: gremlins, parameters: {x: 1}}]\n', "no candidate 'gremlins'"),
+    ('emla_model: 1\nsample_period: 1e-4\neffects: [{effect: gremlins, parameters: {x: 1}}]\n',
+     "no candidate 'gremlins'"),
     # nonsense the physics layer's bounds refuse (issue 19)
     ('emla_model: 1\nsample_period: 1e-4\nparameters: {resistance: -4}\n', 'parameters.resistance -4 is outside'),
     ('emla_model: 1\nsample_period: 1e-4\nparameters: {mass: 1e308}\n', 'parameters.mass 1e+308 is outside'),

@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from ros_isolation import processes
+from test_nodes import EMLA, MS, SAMPLES, params_file, ros_node, spin_until
 
 from emla_core import messages, topics
 from emla_core.nodes.qos import FRAME_QOS, LATCHED_QOS
 from emla_msgs.msg import ParameterEstimate, SampleFrame, SignalFrames
 from emla_sim.datasets import closed_loop
-from ros_isolation import processes
-from test_nodes import EMLA, MS, SAMPLES, params_file, ros_node, spin_until
 
 pytestmark = pytest.mark.timeout(180)
 

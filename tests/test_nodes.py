@@ -11,6 +11,7 @@ import yaml
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.parameter import Parameter
+from ros_isolation import REPO, VENV_BIN, isolated_env, processes
 from rosgraph_msgs.msg import Clock
 
 from emla_control.nodes.controller_node import ControllerNode
@@ -21,7 +22,6 @@ from emla_identification.nodes.identifier_node import IdentifierNode
 from emla_msgs.msg import ParameterEstimate, SampleFrame
 from emla_sim.nodes.plant_node import PlantNode
 from emla_sim.nodes.sensor_node import SensorNode
-from ros_isolation import REPO, VENV_BIN, isolated_env, processes
 
 pytestmark = pytest.mark.timeout(180)
 

@@ -4,6 +4,7 @@ plant (tests/independent_plant.py: a dithered PID loop, an elasto-plastic fricti
 """
 import numpy as np
 import pytest
+from independent_plant import make_effect, record
 
 from emla_bench import scenarios
 from emla_core.errors import InputError
@@ -11,7 +12,6 @@ from emla_core.model_file import Model, ModelEffect
 from emla_identification.online import OnlineIdentifier
 from emla_identification.online_effects import EffectColumns, columns_for
 from emla_identification.regressors import RowStream
-from independent_plant import make_effect, record
 
 EFFECTS = ('coulomb_friction', 'return_spring')
 FRAME = 500

@@ -9,11 +9,11 @@ import subprocess
 import sys
 
 import pytest
+from independent_data import EXAMPLES
+from ros_isolation import REPO
 
 from emla_cli import cli
 from emla_cli.commands import identify as identify_command
-from independent_data import EXAMPLES
-from ros_isolation import REPO
 
 MAT_COLUMNS = ('--columns', 't=time,voltage=coil_voltage,current=coil_current,position=stroke')
 

@@ -8,8 +8,17 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from emla_core.parameters import PARAMETER_NAMES, TABLE1, ActuatorParameters
-from emla_core.physics import (EFFECTS, CoulombFriction, Effect, ForceConstantVariation, InductanceSaturation,
-                                ResistanceDrift, ReturnSpring, make_effect, register_effect)
+from emla_core.physics import (
+    EFFECTS,
+    CoulombFriction,
+    Effect,
+    ForceConstantVariation,
+    InductanceSaturation,
+    ResistanceDrift,
+    ReturnSpring,
+    make_effect,
+    register_effect,
+)
 from emla_sim.effects import ParameterChange
 from emla_sim.plant import Plant
 
@@ -178,7 +187,8 @@ def test_initial_state_and_temperature_without_effects():
 # ---- effects ----
 
 def zero_strength_effects():
-    return [CoulombFriction(coulomb_force=0.0), ReturnSpring(spring_stiffness=0.0), ResistanceDrift(temperature_coefficient=0.0),
+    return [CoulombFriction(coulomb_force=0.0), ReturnSpring(spring_stiffness=0.0),
+            ResistanceDrift(temperature_coefficient=0.0),
             InductanceSaturation(inductance_quadratic=0.0), ForceConstantVariation(emf_constant_curvature=0.0)]
 
 
@@ -193,7 +203,8 @@ def test_rk4_with_zero_strength_effects_equals_the_exact_path():
 
 def test_smooth_effects_match_solve_ivp_of_the_written_out_model():
     params = TABLE1.replace(load_force=1.0)
-    effects = [ReturnSpring(spring_stiffness=1500.0, spring_center=1e-3), InductanceSaturation.curve(TABLE1.inductance, 5.0),
+    effects = [ReturnSpring(spring_stiffness=1500.0, spring_center=1e-3),
+               InductanceSaturation.curve(TABLE1.inductance, 5.0),
                ForceConstantVariation(emf_constant_curvature=-8000.0 * TABLE1.emf_constant, center=2e-3),
                ResistanceDrift.fast(time_constant=0.01)]
     drift = effects[3]

@@ -5,9 +5,9 @@ import subprocess
 import numpy as np
 import pytest
 import yaml
+from ros_isolation import VENV_BIN, processes
 
 from emla_core.bag import read_bag
-from ros_isolation import VENV_BIN, processes
 
 pytestmark = pytest.mark.timeout(300)
 EMLA = str(VENV_BIN / 'emla')

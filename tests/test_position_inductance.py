@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from independent_plant import record
 from scipy.integrate import solve_ivp
 
 from emla_core.errors import InputError
@@ -15,7 +16,6 @@ from emla_core.physics import EFFECTS, PositionInductance
 from emla_identification.discrepancy import diagnose
 from emla_identification.online_effects import columns_for
 from emla_sim.plant import Plant
-from independent_plant import record
 
 TS = 1e-4
 

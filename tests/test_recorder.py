@@ -6,10 +6,10 @@ import time
 import numpy as np
 import pytest
 import yaml
+from ros_isolation import VENV_BIN, processes
 from rosbags.highlevel import AnyReader
 
 from emla_core.bag import read_bag, typestore
-from ros_isolation import VENV_BIN, processes
 
 pytestmark = pytest.mark.timeout(120)
 

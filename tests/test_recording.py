@@ -2,9 +2,8 @@
 import numpy as np
 import pytest
 
-from emla_core.data import load
+from emla_core.data import load, read_csv
 from emla_core.errors import InputError
-from emla_core.data import read_csv
 from emla_core.recording import Recording, write_csv
 
 

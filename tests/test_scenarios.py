@@ -111,7 +111,8 @@ def test_the_law_compensates_a_known_friction_and_spring_exactly():
     from emla_core.physics import CoulombFriction, ReturnSpring
     base = scenarios.get('default')
     with_effects = scenarios.Scenario('test', '', duration=0.4, evaluate_from=0.2, cases={'fixed': (True, False)},
-                                      effects=(CoulombFriction(coulomb_force=1.0), ReturnSpring(spring_stiffness=1500.0)))
+                                      effects=(CoulombFriction(coulomb_force=1.0),
+                                               ReturnSpring(spring_stiffness=1500.0)))
     clean = scenarios.Scenario('test', '', duration=0.4, evaluate_from=0.2, cases={'fixed': (False, False)})
     rms = {}
     for label, scenario, effects in (('clean', clean, None), ('compensated', with_effects,

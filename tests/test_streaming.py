@@ -8,10 +8,10 @@ from mcap.writer import Writer
 
 from emla_cli.cli import main
 from emla_core.bag import BagWriter, iter_chunks, read_bag, typestore, write_recording
+from emla_core.data import read_csv
 from emla_core.errors import InputError
 from emla_core.messages import frame_message, serialize
 from emla_core.parameters import TABLE1
-from emla_core.data import read_csv
 from emla_core.recording import Recording, write_csv
 from emla_core.topics import SAMPLE_FRAME
 from emla_identification import streaming

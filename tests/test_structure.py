@@ -8,10 +8,8 @@ import inspect
 import re
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
-
 from ros_isolation import REPO
 
 PACKAGES = ('emla_core', 'emla_sim', 'emla_identification', 'emla_control', 'emla_bench', 'emla_cli')
@@ -47,7 +45,8 @@ def imports(name, path):
         elif isinstance(node, ast.ImportFrom):
             base = node.module or ''
             if node.level:
-                base = '.'.join(package.split('.')[:len(package.split('.')) - node.level + 1] + ([base] if base else []))
+                parts = package.split('.')
+                base = '.'.join(parts[:len(parts) - node.level + 1] + ([base] if base else []))
             found.add(base)
             found.update(f'{base}.{alias.name}' for alias in node.names)
     return {m for m in found if m.split('.')[0] in PACKAGES}

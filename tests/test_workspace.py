@@ -3,7 +3,6 @@ import subprocess
 import sys
 
 import pytest
-
 from ros_isolation import REPO, VENV_BIN, isolated_env, processes
 
 PUBLISHER = r'''
@@ -70,6 +69,7 @@ def test_colcon_builds_the_workspace(tmp_path):
     indexed = {p.name for p in install.glob('*/share/ament_index/resource_index/packages/*')}
     assert {'emla_msgs', 'emla_core', 'emla_sim', 'emla_identification', 'emla_control', 'emla_bench',
             'emla_cli'} <= indexed
-    for pkg, exe in [('emla_sim', 'plant'), ('emla_sim', 'sensor'), ('emla_identification', 'identifier'), ('emla_core', 'recorder'),
+    for pkg, exe in [('emla_sim', 'plant'), ('emla_sim', 'sensor'), ('emla_identification', 'identifier'),
+                     ('emla_core', 'recorder'),
                      ('emla_control', 'controller')]:
         assert (install / pkg / 'lib' / pkg / exe).is_file(), f'{pkg} {exe} not where ros2 run looks'

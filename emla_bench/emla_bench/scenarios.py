@@ -23,8 +23,8 @@ from emla_control.reference import StrokeReference
 from emla_core.errors import InputError
 from emla_core.model_file import Model
 from emla_core.parameters import TABLE1, ActuatorParameters
-from emla_identification.online import OnlineIdentifier
 from emla_core.physics import CoulombFriction, ResistanceDrift, ReturnSpring
+from emla_identification.online import OnlineIdentifier
 from emla_sim.effects import ParameterChange
 from emla_sim.plant import Plant
 from emla_sim.sensor import Sensor, SensorConfig

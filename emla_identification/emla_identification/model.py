@@ -103,7 +103,7 @@ def identify_model(model, recording, source='model file'):
         for effect in model.effects:
             candidate = _candidate(effect, source)
 
-            def heldout(variant):
+            def heldout(variant, current=current):
                 trial = fit(variant.realigned(data), current.candidates + (variant,), current, relinearise=False)
                 error = trial.heldout.sum()
                 return error if np.isfinite(error) else np.inf

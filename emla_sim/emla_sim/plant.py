@@ -22,7 +22,6 @@ import numpy as np
 from scipy.linalg import expm
 
 from emla_core.parameters import TABLE1, ActuatorParameters
-
 from emla_core.physics import AMBIENT_TEMPERATURE, Effect, make_effect
 from emla_core.physics.kernel import coil_state, hook_rates, integrate_interval, integrate_sequence, kernel_vector
 

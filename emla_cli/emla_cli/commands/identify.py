@@ -36,7 +36,8 @@ equals batch least squares.
 
 Long records (a million samples and more) are read and identified in parts with bounded memory; the
 result is the same. The JSON goes to stdout unless --json is given; --plot draws the estimates converging
-(and the true values, when a simulated bag carries them). With --model-file the structure of a model file (from `emla discrepancy --model-out`: the nominal model with
+(and the true values, when a simulated bag carries them). With --model-file the structure of a model file
+(from `emla discrepancy --model-out`: the nominal model with
 the effects found) is identified on DATA, effects' parameters included; --model-out writes what was
 identified as a model file for the other commands. Data that look read in the wrong units or signs (a
 current in mA, a voltage in mV, a time in ms, a position in mm; a sensor mounted the other way, named by its

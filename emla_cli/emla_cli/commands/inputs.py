@@ -55,7 +55,8 @@ def understood(recording, command):
     were interpolated. Data in the suite's own names and SI units get neither."""
     sampling = recording.sampling
     jitter = sampling.get('jitter', 0.0)
-    plain = all(source.get('source') == name and source.get('scale') == 1.0 for name, source in recording.inputs.items())
+    plain = all(source.get('source') == name and source.get('scale') == 1.0
+                for name, source in recording.inputs.items())
     if plain and jitter <= JITTER_NOTE and 'how' not in sampling:
         return {}
     if jitter > JITTER_NOTE:

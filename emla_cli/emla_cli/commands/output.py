@@ -71,7 +71,7 @@ def check_outputs(files, inputs=(), force=False, directories=None):
     outputs += [(flag, Path(path), marker) for flag, (path, marker) in (directories or {}).items()
                 if path is not None]
     inputs = [Path(path) for path in inputs if path is not None]
-    for k, (flag, path, marker) in enumerate(outputs):
+    for k, (flag, path, _marker) in enumerate(outputs):
         for source in inputs:
             if relation := _relation(path, source):
                 raise InputError(f'{flag} {path}: {RELATIONS[relation]} the input {source}; an output never '

@@ -14,8 +14,17 @@ from emla_core.errors import InputError
 from emla_core.recording import Recording
 from emla_core.topics import NAMESPACE, SAMPLE_FRAME
 
-from .reader import (MCAP_ERRORS, bag_files, check_period, chunk_data, data_cost, read_bag, reporting_skipped,
-                     unreadable, warn_cost)
+from .reader import (
+    MCAP_ERRORS,
+    bag_files,
+    check_period,
+    chunk_data,
+    data_cost,
+    read_bag,
+    reporting_skipped,
+    unreadable,
+    warn_cost,
+)
 
 _MCAP_MESSAGE = 0x05      # the opcode of an MCAP Message record
 _DECODE_BYTES = 1 << 20   # uncompressed chunk data decoded at a time

@@ -35,8 +35,14 @@ from emla_core.errors import InputError
 from emla_core.files import regular_file
 from emla_core.messages import estimate_std, estimate_values, read_frame_cdr
 from emla_core.recording import Recording
-from emla_core.topics import (NAMESPACE, PARAMETER_ESTIMATE, PARAMETERS_TOPIC, SAMPLE_FRAME, TRUE_PARAMETERS_TOPIC,
-                              stamp_to_ns)
+from emla_core.topics import (
+    NAMESPACE,
+    PARAMETER_ESTIMATE,
+    PARAMETERS_TOPIC,
+    SAMPLE_FRAME,
+    TRUE_PARAMETERS_TOPIC,
+    stamp_to_ns,
+)
 
 from .schema import typestore
 

@@ -185,7 +185,8 @@ def write_recording(recording, path, *, frame_size=100, estimates=(), custom_dat
         for first in range(0, len(recording), frame_size):
             stamp = start_ns + to_ns(first * period)
             for name, values in recording.signals.items():
-                bag.write_message(signal_topic(name), stamp, frame_message(stamp, period, values[first:first + frame_size]))
+                bag.write_message(signal_topic(name), stamp,
+                                  frame_message(stamp, period, values[first:first + frame_size]))
             frame_end = recording.start_time + (first + frame_size) * period
             while pending and pending[0][0] < frame_end:
                 t, values = pending.pop(0)

@@ -12,8 +12,9 @@ effects of an actuator (friction at reversals, springs, heating, saturation at t
 An adequate model leaves the ratio near 1 (0.9-1.3 on noise-only records); a missing effect adds low-band
 power (ratios of 10 to 10^4 for the effects of physics.md at realistic strengths). A named effect whose model
 is a close but not exact description of the plant's (a first-order thermal model, a quadratic saturation)
-leaves ratios of 1.5-3, which MAX_RATIO accepts as explained. The excess is reported in physical units (V of the voltage balance, N of the force balance) as the
-RMS of the residual the noise does not explain, beside the RMS the noise puts in the low band (the floor).
+leaves ratios of 1.5-3, which MAX_RATIO accepts as explained. The excess is reported in physical units (V of the
+voltage balance, N of the force balance) as the RMS of the residual the noise does not explain, beside the RMS the
+noise puts in the low band (the floor).
 """
 from dataclasses import dataclass
 
@@ -83,7 +84,7 @@ def assess_adequacy(fit):
         spectra[kind] = (quantity, e, frequency, power, shapes)
     sources = sorted({name for *_, shapes in spectra.values() for name in shapes})
     rows, targets = [], []
-    for quantity, e, frequency, power, shapes in spectra.values():
+    for _quantity, _e, frequency, power, shapes in spectra.values():
         high = frequency >= HIGH / ts
         weight = 1.0 / power[high].mean()          # each equation in its own units
         rows.append(weight * np.column_stack([shapes.get(name, np.zeros(len(frequency)))[high] for name in sources]))

@@ -80,11 +80,11 @@ class ElectricalRows:
         blocks = []
         for c in candidates:
             block = np.zeros((len(voltage), len(c.parameters)))
-            e, l = c.voltage(state), c.inductance(state)
+            e, li = c.voltage(state), c.inductance(state)
             if e is not None:
                 block -= self.beta * e.T
-            if l is not None:
-                block -= (self.alpha * self.data.sample_period / m['inductance'] ** 2) * (drop * l).T
+            if li is not None:
+                block -= (self.alpha * self.data.sample_period / m['inductance'] ** 2) * (drop * li).T
             blocks.append(block)
         return np.hstack(blocks)
 

@@ -23,20 +23,22 @@ from emla_core.nodes.param_specs import ACTUATOR_FIELDS, Spec, actuator_specs, d
 from emla_core.nodes.qos import CLOCK_QOS, FRAME_QOS, LATCHED_QOS
 from emla_core.nodes.run import run
 from emla_core.parameters import PARAMETER_NAMES, ActuatorParameters
-from emla_msgs.msg import ParameterEstimate, SampleFrame, SignalFrames
 from emla_core.physics import EFFECTS, make_effect
+from emla_msgs.msg import ParameterEstimate, SampleFrame, SignalFrames
 from emla_sim.effects import ParameterChange
 from emla_sim.plant import Plant
 
 SPECS = [
     Spec('sample_period', 1e-4, 'sample period Ts, s', 1e-6, 1e-2),
-    Spec('control_period', topics.CONTROL_PERIOD, 'control period Tc (a whole multiple of Ts; samples per frame = Tc/Ts), s',
+    Spec('control_period', topics.CONTROL_PERIOD,
+         'control period Tc (a whole multiple of Ts; samples per frame = Tc/Ts), s',
                 1e-6, 1.0),
     Spec('duration', 1.0, 'simulated time to run, then publish done and exit; 0 = until stopped, s',
                 0.0, 1e6),
     Spec('initial_position', 0.0, 'position at t = 0 (at rest, no current), m', -1.0, 1.0),
     *actuator_specs('true'),
-    Spec('effects', Parameter.Type.STRING_ARRAY, f'effects by name, of {sorted(n for n, e in EFFECTS.items() if not e.simulation_refusal)}'),
+    Spec('effects', Parameter.Type.STRING_ARRAY,
+         f'effects by name, of {sorted(n for n, e in EFFECTS.items() if not e.simulation_refusal)}'),
     Spec('effect_parameters', Parameter.Type.STRING_ARRAY,
                 "settings of those effects, 'effect.field=value' (SI units, see docs/physics.md)"),
     Spec('change_times', Parameter.Type.DOUBLE_ARRAY, 'times of step parameter changes, s'),
@@ -85,7 +87,8 @@ class PlantNode(EmlaNode):
         if self.periods == 0:
             raise InputError(f'duration ({p.duration} s) is shorter than one control period')
         self.awaited_readers = {topics.START_TOPIC: p.start_subscribers,
-                                topics.MEASURED_FRAMES_TOPIC: p.frames_subscribers, topics.DONE_TOPIC: p.done_subscribers}
+                                topics.MEASURED_FRAMES_TOPIC: p.frames_subscribers,
+                                topics.DONE_TOPIC: p.done_subscribers}
         self.changes = changes_from(p.change_times, p.change_parameters, p.change_factors)
         params = ActuatorParameters(**{name: getattr(p, name) for name in ACTUATOR_FIELDS})
         self.supply = params.supply_voltage

@@ -3,8 +3,9 @@
 The plant's true frames of each period come in one message (/emla/plant/frames): the current and position
 frames are measured (delay, noise, quantisation) onto /emla/current and /emla/position, the voltage frame
 passes unchanged onto /emla/voltage (the DSP knows what it applied); the three go together on /emla/frames
-too (a SignalFrames: one delivery per period for the controller and identifier of a launch). State frames it cannot use (see emla_core.nodes)
-give empty measured frames with their stamp: the period goes unmeasured, the lockstep goes on.
+too (a SignalFrames: one delivery per period for the controller and identifier of a launch). State frames it
+cannot use (see emla_core.nodes) give empty measured frames with their stamp: the period goes unmeasured, the
+lockstep goes on.
 """
 import sys
 

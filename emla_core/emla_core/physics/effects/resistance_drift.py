@@ -45,7 +45,7 @@ class _Candidate(Candidate):
     heating: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
 
     def variants(self, data):
-        from scipy.signal import lfilter   # here: the nodes that load the physics need no scipy
+        from scipy.signal import lfilter  # here: the nodes that load the physics need no scipy
         span = len(data) * data.sample_period
         power = data.signals['current'] ** 2
         variants = []
