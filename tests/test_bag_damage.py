@@ -108,7 +108,7 @@ HOSTILE_METADATA = {
     'files not a list': (lambda bag: edited(bag, 'relative_file_paths:\n  - intact_0.mcap', 'relative_file_paths: 5'),
                          'relative_file_paths is missing or not a list of file names'),
     'custom data a list': (lambda bag: edited(bag, 'custom_data:\n', 'custom_data: [1, 2]\n  former_custom_data:\n'),
-                           'custom_data is not a mapping'),
+                           'custom_data is not a mapping of names to plain values'),
     'topics without names': (lambda bag: edited(bag, 'name: /emla/voltage', 'nom: /emla/voltage'),
                              'topics_with_message_count is not a list of topics with a name and type'),
     'not YAML': (lambda bag: metadata(bag, 'rosbag2_bagfile_information: {storage: [\n'),

@@ -134,8 +134,9 @@ def _choose(names, columns, sample_period, source):
     if 't' in chosen and sample_period is not None:
         raise InputError(f'{source}: give either a time column or --sample-period, not both')
     timed = [c for c in names if c not in chosen.values() and split_header(c)[0].lower() in ALIASES['t']]
-    if timed and sample_period is not None:   # else the period given would silently overrule the time read
-        raise InputError(f'{source}: column {timed[0]!r} holds the time; --sample-period is for data without one')
+    if timed and sample_period is not None and columns is None:   # unmapped, the period would overrule it unsaid
+        raise InputError(f'{source}: column {timed[0]!r} holds the time; --sample-period is for data without one '
+                         f'(or map the signals with --columns to leave it out)')
     if 't' not in chosen and sample_period is None:
         raise InputError(f'{source}: missing column t (time): map one with --columns t=NAME, or give '
                          f'--sample-period S (columns: {", ".join(names)})')

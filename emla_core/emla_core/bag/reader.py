@@ -242,45 +242,83 @@ def bag_files(path):
     return [path / p for p in info['relative_file_paths']], dict(info.get('custom_data') or {})
 
 
-def _sqlite3(path):
-    """Whether `path` is a rosbag2 directory in sqlite3 storage (read through rosbags: no chunks to check)."""
-    return path.is_dir() and bag_info(path)['storage_identifier'] == 'sqlite3'
+def storage(path):
+    """The storage of a bag directory or .mcap file behind one interface, as rosbags chooses its storage plugin:
+    `topics()` ({topic: message type} of the channels with messages) and `serialized(topics, on_corrupt)` ((topic,
+    message type, log time ns, CDR bytes)). MCAP is read by the suite (chunks CRC-checked, a corrupt one skipped);
+    sqlite3 through rosbags (no chunks to check)."""
+    path = Path(path)
+    if path.is_dir() and bag_info(path)['storage_identifier'] == 'sqlite3':
+        return _Sqlite3(path)
+    return _Mcap(path)
 
 
-@contextlib.contextmanager
-def _sqlite3_reader(path):
-    """A rosbags Reader of a sqlite3 bag; its errors as one InputError line."""
-    from rosbags.rosbag2 import Reader
-    try:
-        with Reader(path) as reader:
-            yield reader
-    except InputError:
-        raise
-    except Exception as exc:  # rosbags raises many kinds on a damaged bag; the user needs one line
-        raise InputError(f'{path}: unreadable sqlite3 bag: {one_line(exc)}') from None
+class _Sqlite3:
+    def __init__(self, path):
+        self.path = path
+
+    @contextlib.contextmanager
+    def _reader(self):
+        """A rosbags Reader of the bag; its errors as one InputError line."""
+        from rosbags.rosbag2 import Reader
+        try:
+            with Reader(self.path) as reader:
+                yield reader
+        except InputError:
+            raise
+        except Exception as exc:  # rosbags raises many kinds on a damaged bag; the user needs one line
+            raise InputError(f'{self.path}: unreadable sqlite3 bag: {one_line(exc)}') from None
+
+    def topics(self):
+        with self._reader() as reader:
+            return {c.topic: c.msgtype for c in reader.connections if c.msgcount}
+
+    def serialized(self, topics, on_corrupt):
+        with self._reader() as reader:
+            connections = [c for c in reader.connections if topics is None or c.topic in topics]
+            for connection, stamp, data in reader.messages(connections=connections) if connections else ():
+                yield connection.topic, connection.msgtype, stamp, data
+
+
+class _Mcap:
+    def __init__(self, path):
+        self.path = path
+
+    def topics(self):
+        topics = {}
+        for file in bag_files(self.path)[0]:
+            try:
+                with file.open('rb') as f:
+                    summary = make_reader(f).get_summary()
+            except MCAP_ERRORS as exc:
+                raise unreadable(file, exc) from None
+            if summary is None:
+                raise InputError(f'{file}: unreadable MCAP: no summary section (its writer did not finish it)')
+            statistics = summary.statistics
+            topics.update({c.topic: summary.schemas[c.schema_id].name for c in summary.channels.values()
+                           if c.schema_id in summary.schemas
+                           and (statistics is None or statistics.channel_message_counts.get(c.id))})
+        return topics
+
+    def serialized(self, topics, on_corrupt):
+        for file in bag_files(self.path)[0]:
+            try:
+                with file.open('rb') as f:
+                    summary = make_reader(f).get_summary()
+                    if summary is None or not summary.chunk_indexes:  # read straight through, the CRCs checked
+                        f.seek(0)
+                        for schema, channel, message in NonSeekingReader(f, validate_crcs=True).iter_messages(topics):
+                            if schema is not None:
+                                yield channel.topic, schema.name, message.log_time, message.data
+                    else:
+                        yield from _indexed(f, file, summary, topics, on_corrupt)
+            except MCAP_ERRORS as exc:
+                raise unreadable(file, exc) from None
 
 
 def bag_topics(path):
-    """{topic: message type} of the channels with messages in a bag, from its MCAP summaries (or its sqlite3
-    database)."""
-    path = Path(path)
-    if _sqlite3(path):
-        with _sqlite3_reader(path) as reader:
-            return {c.topic: c.msgtype for c in reader.connections if c.msgcount}
-    topics = {}
-    for file in bag_files(Path(path))[0]:
-        try:
-            with file.open('rb') as f:
-                summary = make_reader(f).get_summary()
-        except MCAP_ERRORS as exc:
-            raise unreadable(file, exc) from None
-        if summary is None:
-            raise InputError(f'{file}: unreadable MCAP: no summary section (its writer did not finish it)')
-        statistics = summary.statistics
-        topics.update({c.topic: summary.schemas[c.schema_id].name for c in summary.channels.values()
-                       if c.schema_id in summary.schemas
-                       and (statistics is None or statistics.channel_message_counts.get(c.id))})
-    return topics
+    """{topic: message type} of the channels with messages in a bag (its storage's `topics`)."""
+    return storage(path).topics()
 
 
 def chunk_data(f, file, chunks, k, on_corrupt):
@@ -322,31 +360,9 @@ def reporting_skipped(skipped):
 
 def iter_serialized(path, topics=None, on_corrupt=warn_skipped):
     """(topic, message type, log time ns, CDR bytes) of a bag directory or .mcap file: file by file, each file
-    in log-time order; only `topics` if given. A corrupt chunk is skipped after on_corrupt(CorruptChunk).
-    A sqlite3 bag is read through rosbags, in log-time order."""
-    if _sqlite3(Path(path)):
-        yield from _sqlite3_serialized(Path(path), topics)
-        return
-    for file in bag_files(Path(path))[0]:
-        try:
-            with file.open('rb') as f:
-                summary = make_reader(f).get_summary()
-                if summary is None or not summary.chunk_indexes:  # read straight through, the CRCs checked
-                    f.seek(0)
-                    for schema, channel, message in NonSeekingReader(f, validate_crcs=True).iter_messages(topics):
-                        if schema is not None:
-                            yield channel.topic, schema.name, message.log_time, message.data
-                else:
-                    yield from _indexed(f, file, summary, topics, on_corrupt)
-        except MCAP_ERRORS as exc:
-            raise unreadable(file, exc) from None
-
-
-def _sqlite3_serialized(path, topics):
-    with _sqlite3_reader(path) as reader:
-        connections = [c for c in reader.connections if topics is None or c.topic in topics]
-        for connection, stamp, data in reader.messages(connections=connections) if connections else ():
-            yield connection.topic, connection.msgtype, stamp, data
+    in log-time order (a sqlite3 bag in log-time order); only `topics` if given. A corrupt MCAP chunk is skipped
+    after on_corrupt(CorruptChunk)."""
+    yield from storage(path).serialized(topics, on_corrupt)
 
 
 def _indexed(f, file, summary, topics, on_corrupt):
