@@ -32,6 +32,8 @@ built-in ones. Example, a quadratic drag c v |v|:
 import dataclasses
 from typing import ClassVar
 
+import numpy as np
+
 CANDIDATES = {}
 
 
@@ -95,3 +97,18 @@ class Candidate:
     def reported(self, values, stds, model):
         """{name: (value, one-sigma)} of the added parameters; `model` holds the re-identified nominal ones."""
         return {n: (float(v), float(s)) for n, v, s in zip(self.parameters, values, stds)}
+
+
+@dataclasses.dataclass(frozen=True)
+class CenteredCandidate(Candidate):
+    """A candidate whose terms are polynomials in d = x - center, the center set to the record's mean position
+    (its `center` setting): about the middle of the motion the powers of d are least correlated."""
+
+    center: float = 0.0
+
+    def variants(self, data):
+        return [dataclasses.replace(self, center=float(np.mean(data.signals['position'])))]
+
+    def offset(self, s):
+        """d = x - center at the samples of the state s."""
+        return s.position - self.center

@@ -6,7 +6,7 @@ from typing import ClassVar
 import numba
 import numpy as np
 
-from ..candidate import Candidate, of_effect
+from ..candidate import CenteredCandidate, of_effect
 from ..effect import Effect, Parameter, register_effect
 
 PARAMETERS = (Parameter('emf_constant_slope', 'N/(A m)', 0.0, doc='K1'),
@@ -23,21 +23,17 @@ def emf_change(position, slope, curvature, center):
 
 
 @dataclasses.dataclass(frozen=True)
-class _Candidate(Candidate):
+class _Candidate(CenteredCandidate):
     """(K1 d + K2 d^2) v in the voltage and -(K1 d + K2 d^2) I in the force, x_c the record's mean position."""
 
     name: ClassVar[str] = 'force_constant_variation'
     parameters, units = of_effect(PARAMETERS)
     acts_on: ClassVar[tuple] = ('electrical', 'mechanical')
     signs: ClassVar[tuple] = (0, 0)
-    center: float = 0.0
-
-    def variants(self, data):
-        return [dataclasses.replace(self, center=float(np.mean(data.signals['position'])))]
 
     def _powers(self, s):
-        offset = s.position - self.center
-        return np.stack((offset, offset * offset))
+        d = self.offset(s)
+        return np.stack((d, d * d))
 
     def voltage(self, s):
         return self._powers(s) * s.velocity

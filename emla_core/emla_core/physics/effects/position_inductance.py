@@ -9,7 +9,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from ..candidate import Candidate, of_effect
+from ..candidate import CenteredCandidate, of_effect
 from ..effect import Effect, Parameter, register_effect
 
 PARAMETERS = (Parameter('inductance_slope', 'H/m', 0.05, doc='L1; the default: L 12 % higher 4 mm towards +x '
@@ -19,29 +19,28 @@ SETTINGS = (Parameter('center', 'm', 0.0, doc='x_c'),)
 
 
 @dataclasses.dataclass(frozen=True)
-class _Candidate(Candidate):
+class _Candidate(CenteredCandidate):
     """(L1, L2) in (d, d^2) dI/dt + (1, 2 d) I v and the force -(1, 2 d) I^2 / 2, x_c the record's mean position."""
 
     name: ClassVar[str] = 'position_inductance'
     parameters, units = of_effect(PARAMETERS)
     acts_on: ClassVar[tuple] = ('electrical', 'mechanical')
     signs: ClassVar[tuple] = (0, 0)
-    center: float = 0.0
-
-    def variants(self, data):
-        return [dataclasses.replace(self, center=float(np.mean(data.signals['position'])))]
 
     def inductance(self, s):
-        d = s.position - self.center
+        d = self.offset(s)
         return np.stack((d, d * d))
 
+    def _slopes(self, s):
+        """L'(x) / (L1, L2): (1, 2 d)."""
+        d = self.offset(s)
+        return np.stack((np.ones_like(d), 2.0 * d))
+
     def voltage(self, s):
-        d = s.position - self.center
-        return np.stack((np.ones_like(d), 2.0 * d)) * (s.current * s.velocity)
+        return self._slopes(s) * (s.current * s.velocity)
 
     def force(self, s):
-        d = s.position - self.center
-        return -0.5 * np.stack((np.ones_like(d), 2.0 * d)) * s.current ** 2
+        return -0.5 * self._slopes(s) * s.current ** 2
 
 
 @register_effect
