@@ -191,3 +191,27 @@ def test_import_refuses_bad_csv_and_used_directory(data, tmp_path):
     (used / 'keep.txt').write_text('x')
     assert_one_line_error(emla('import', data / 'run.csv', used), 'used', 'import')
     assert [p.name for p in used.iterdir()] == ['keep.txt']
+
+
+def test_arx_columns_by_the_users_own_names(tmp_path):
+    """A column named u is read as the voltage (its alias); --input u still finds it. The ARX of a known
+    second-order system comes out exact."""
+    rng = np.random.default_rng(0)
+    u, y = rng.standard_normal(2000), np.zeros(2000)
+    for k in range(2, len(y)):
+        y[k] = 1.5 * y[k - 1] - 0.7 * y[k - 2] + 0.5 * u[k - 1]
+    path = tmp_path / 'uy.csv'
+    np.savetxt(path, np.column_stack([1e-4 * np.arange(len(y)), u, y]), delimiter=',', header='t,u,y', comments='')
+    out = tmp_path / 'arx.json'
+    assert main(['identify', str(path), '--model', 'arx', '--input', 'u', '--output', 'y', '--orders', '2', '1', '1',
+                 '--json', str(out)]) == 0
+    result = json.loads(out.read_text())
+    assert result['a'] == pytest.approx([1.0, -1.5, 0.7], abs=1e-6) and result['b'] == pytest.approx([0.5], abs=1e-6)
+
+
+def test_other_column_names_are_told_the_flag_that_maps_them(tmp_path):
+    path = tmp_path / 'logger.csv'
+    path.write_text('time,Ucoil_V,Icoil_A,stroke_mm\n0,1,0,0\n0.0001,1,0.1,0\n')
+    out = emla('identify', path)
+    assert_one_line_error(out, 'logger.csv')
+    assert 'has Ucoil_V, Icoil_A, stroke_mm: map yours with --columns voltage=NAME' in out.stderr

@@ -29,13 +29,20 @@ def checked(recording, model, forgetting, memory_time=None):
     return model, kinds, lam
 
 
+def missing_signals(recording):
+    """The InputError for a record without the signals of any grey-box model: what it has, and the flags that map
+    a user's own names."""
+    return InputError(f'{recording.source or "recording"}: needs columns voltage, current, position (or force, '
+                      f'position); has {", ".join(recording.signals) or "none"}: map yours with --columns '
+                      f'voltage=NAME,current=NAME,position=NAME (a bag\'s topics with --topics)')
+
+
 def setup(recording, model, forgetting, memory_time=None):
     """(model, regression kinds, lambda) for the signals of `recording` (all of it, or its first part)."""
     source = recording.source or 'recording'
     model = model or default_model(recording.signals)
     if model is None:
-        raise InputError(f'{source}: needs columns voltage, current, position (or force, position); '
-                         f'has {", ".join(recording.signals) or "none"}')
+        raise missing_signals(recording)
     try:
         kinds = regressions_for(model, recording.signals)
         lam = forgetting_factor(forgetting, memory_time, recording.sample_period)

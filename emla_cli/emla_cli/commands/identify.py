@@ -192,7 +192,8 @@ def _arx(recording, orders, forgetting, args):
     if args.input is None and not recording.has(*DEFAULT_SIGNALS):
         raise InputError(f'{source}: no voltage and current columns for the default ARX input and output; '
                          f'choose them with --input COL --output COL (columns: {", ".join(recording.signals)})')
-    columns = (args.input, args.output) if args.input is not None else DEFAULT_SIGNALS
+    columns = (tuple(_signal_of(recording, name) for name in (args.input, args.output)) if args.input is not None
+               else DEFAULT_SIGNALS)
     recording.require(*columns)
     u, y = (recording.signals[c] for c in columns)
     if len(y) - max(orders[0], orders[2] + orders[1] - 1) <= orders[0] + orders[1]:
@@ -209,3 +210,12 @@ def _arx(recording, orders, forgetting, args):
     std = path.std
     title = f'{Path(source).name}: ARX{orders} from {columns[0]} to {columns[1]}'
     return model.to_dict(), (time, dict(zip(names, path.theta.T)), dict(zip(names, std.T)), {}, title)
+
+
+def _signal_of(recording, column):
+    """The signal that holds the user's `column`: its own name, or the suite's signal it was read as (a column
+    named u is read as the voltage)."""
+    if column in recording.signals:
+        return column
+    return next((signal for signal, origin in recording.inputs.items()
+                 if origin.get('source') == column and signal in recording.signals), column)

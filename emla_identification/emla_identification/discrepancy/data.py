@@ -11,6 +11,7 @@ from typing import ClassVar
 import numpy as np
 
 from emla_core.errors import InputError
+from emla_identification.checks import missing_signals
 from emla_identification.regressors import HISTORY, default_model, regressions_for
 
 MAX_DELAY = 8          # samples a sensor delay may have; the last MAX_DELAY samples are kept for re-alignment
@@ -34,8 +35,7 @@ class Data:
         source = recording.source or 'recording'
         model = default_model(recording.signals)
         if model is None:
-            raise InputError(f'{source}: needs columns voltage, current, position (or force, position); '
-                             f'has {", ".join(recording.signals) or "none"}')
+            raise missing_signals(recording)
         kinds = regressions_for(model, recording.signals)
         names = ('force', 'position') if kinds == ('force',) else ('voltage', 'current', 'position')
         n = len(recording) - MAX_DELAY
