@@ -71,7 +71,8 @@ def test_the_model_file_carries_it_to_the_plant_and_the_online_identifier_and_la
                                {'center': 1e-3})], {'data': 'x', 'command': 'test'})
     write(model, tmp_path / 'm.yaml')
     back = read(tmp_path / 'm.yaml')
-    assert back.plant_effects() == (PositionInductance(inductance_slope=0.06, inductance_curvature=1.0, center=1e-3),)
-    assert back.compensation() == {} and EFFECTS['position_inductance'].control_refusal
+    (effect,) = back.plant_effects()
+    assert effect == PositionInductance(inductance_slope=0.06, inductance_curvature=1.0, center=1e-3)
+    assert effect.compensation() == {} and EFFECTS['position_inductance'].control_refusal
     with pytest.raises(InputError, match='position_inductance .an inductance term has no place'):
         columns_for(['position_inductance'], 0.999)

@@ -76,8 +76,9 @@ class Scenario:
             params = self.params.replace(**model.values())
         except ValueError as exc:
             raise InputError(f'{source}: {exc}') from None
-        return dataclasses.replace(self, params=params, model_effects=model.plant_effects(source),
-                                   controller_effects=model.compensation())
+        effects = model.plant_effects(source)
+        compensated = {name: value for effect in effects for name, value in effect.compensation().items()}
+        return dataclasses.replace(self, params=params, model_effects=effects, controller_effects=compensated)
 
     def sensor(self) -> Sensor:
         return Sensor(SensorConfig(sample_period=self.sample_period, seed=self.seed))

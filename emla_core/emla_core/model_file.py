@@ -75,13 +75,6 @@ class Model:
                 raise InputError(f'{source}: {exc}') from None
         return tuple(out)
 
-    def compensation(self) -> dict[str, float]:
-        """{law coefficient: value} of the effects the inverse law compensates (Effect.compensation)."""
-        out = {}
-        for effect in self.plant_effects():
-            out.update(effect.compensation())
-        return out
-
     def to_yaml(self) -> str:
         def pair(value, std):
             return {'value': float(value), 'std': None if std is None or not math.isfinite(std) else float(std)}
