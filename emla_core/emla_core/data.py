@@ -19,6 +19,9 @@ from emla_core.units import SIGNAL_NAMES, SIGNAL_UNITS, parse_assignments, parse
 # Column names (without their unit) taken for a signal when no --columns says otherwise; case is ignored.
 ALIASES = {'t': ('t', 'time'), 'voltage': ('voltage', 'u'), 'current': ('current', 'i'),
            'position': ('position', 'x'), 'velocity': ('velocity', 'v'), 'force': ('force', 'f')}
+# Scalar MATLAB variables taken as the sample period (s) or rate (Hz) of a file without a time vector.
+PERIOD_NAMES = {'period': ('ts', 'dt'), 'rate': ('fs',)}
+PERIOD_AGREEMENT = 1e-6   # relative difference of a given --sample-period from the file's own, refused beyond
 BAG_SUFFIXES = ('.mcap', '.db3')
 # Largest magnitude of a value in SI: no actuator signal comes near it, and squares and products of the
 # identification's regressors stay far from float overflow.
@@ -77,9 +80,15 @@ def load(path: Path | str, *, columns: str | None = None, units: str | None = No
         return recording
     if mat:
         from emla_core.tables import mat_vectors, read_mat_columns
-        chosen = _choose(mat_vectors(path), columns, sample_period, str(path))
-        return from_columns(read_mat_columns(path, chosen.values()), str(path), columns=columns, units=units,
-                            sample_period=sample_period, row='element', first=1)
+        vectors = mat_vectors(path)
+        columns, units, period, given = _mat_period(path, vectors, columns, units, sample_period)
+        chosen = _choose(vectors, columns, period, str(path))
+        recording = from_columns(read_mat_columns(path, chosen.values()), str(path), columns=columns, units=units,
+                                 sample_period=period, row='element', first=1)
+        if given is not None:
+            recording.inputs['t'] = given['input']
+            recording.sampling['how'] = given['how']
+        return recording
     return read_csv(path, columns=columns, units=units, sample_period=sample_period, delimiter=delimiter,
                     decimal=decimal)
 
@@ -124,6 +133,68 @@ def from_columns(table, source, *, columns=None, units=None, sample_period=None,
         period, start, jitter = float(sample_period), 0.0, 0.0
     return Recording(sample_period=period, signals=signals, start_time=start, source=source, inputs=inputs,
                      sampling={'period': period, 'jitter': jitter})
+
+
+def _mat_period(path, vectors, columns, units, sample_period):
+    """(columns, units, sample period, how) of a MATLAB file without a time vector: the period of a scalar
+    variable, the one `columns` maps to t (t=Ts) or else one named as in PERIOD_NAMES (Ts, dt: s; fs: Hz),
+    in place of `sample_period` (which must agree with it within PERIOD_AGREEMENT). `columns` and `units`
+    come back without their t (which the vectors do not hold); `how` is None where no scalar is used, else
+    {'input', 'how'} for the recording's inputs['t'] and sampling."""
+    from emla_core.tables import mat_scalars
+    mapped = parse_assignments('--columns', columns, ('t', *SIGNAL_NAMES))
+    given_units = parse_assignments('--units', units, ('t', *SIGNAL_NAMES))
+    if 't' in mapped and mapped['t'] in vectors:
+        return columns, units, sample_period, None
+    if 't' not in mapped:
+        timed = 't' in _match(vectors, mapped, str(path), skip=() if sample_period is None else ('t',))
+        found = {} if timed else mat_scalars(path, lambda name: _period_name(name) is not None)
+        if not found:
+            return columns, units, sample_period, None
+    else:
+        found = mat_scalars(path, lambda name: name == mapped['t'])
+        if not found:
+            return columns, units, sample_period, None      # _match names the missing column
+    periods = {}
+    for name, value in found.items():
+        kind = _period_name(name) or 'period'
+        unit = given_units.get('t', split_header(name)[1] if kind == 'period' else None)
+        if kind == 'rate' and unit is not None:
+            raise InputError(f'{path}: variable {name} is a sample rate in Hz; --units t does not apply to it')
+        scale = parse_unit('t', unit)[0] if unit is not None else 1.0
+        seconds = scale * value if kind == 'period' else 1.0 / value if value else float('inf')
+        if not 0.0 < seconds < float('inf'):
+            raise InputError(f'{path}: variable {name} = {value:g} is no sample {kind}: map a time vector with '
+                             f'--columns t=NAME or give --sample-period S')
+        periods[name] = (seconds, kind, unit, scale)
+    first, (seconds, kind, unit, scale) = next(iter(periods.items()))
+    for name, (other, *_) in periods.items():
+        if abs(other - seconds) > PERIOD_AGREEMENT * seconds:
+            raise InputError(f'{path}: variables {first} and {name} give different sample periods ({seconds:.9g} s, '
+                             f'{other:.9g} s); choose one with --columns t=NAME')
+    if sample_period is not None and abs(float(sample_period) - seconds) > PERIOD_AGREEMENT * seconds:
+        hertz = ' Hz' if kind == 'rate' else ''
+        raise InputError(f'{path}: --sample-period {float(sample_period):.9g} s disagrees with the file\'s '
+                         f'{first} = {found[first]:.9g}{hertz} (a period of {seconds:.9g} s); '
+                         f'leave --sample-period out to use {first}, or correct it')
+    names = ', '.join(periods)
+    if sample_period is not None:
+        period, how = float(sample_period), f'--sample-period (agrees with MAT variable {names})'
+        source = {'source': '--sample-period', 'unit': 's', 'scale': 1.0, 'unit_from': 'SI (assumed)'}
+    else:
+        period, how = seconds, f'sample period from MAT variable {names}'
+        origin = '--units' if 't' in given_units else 'header' if unit is not None else 'SI (assumed)'
+        source = {'source': first, 'unit': 'Hz' if kind == 'rate' else unit or 's', 'scale': scale,
+                  'unit_from': origin}
+    columns = ','.join(f'{k}={v}' for k, v in mapped.items() if k != 't') or None
+    units = ','.join(f'{k}={v}' for k, v in given_units.items() if k != 't') or None
+    return columns, units, period, {'input': source, 'how': how}
+
+
+def _period_name(name):
+    """'period' or 'rate' for a MATLAB variable named as a sample period or rate (PERIOD_NAMES), else None."""
+    base = split_header(name)[0].lower()
+    return next((kind for kind, names in PERIOD_NAMES.items() if base in names), None)
 
 
 def _choose(names, columns, sample_period, source):

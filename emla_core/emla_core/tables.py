@@ -266,6 +266,46 @@ def read_mat_columns(path, names=None):
     return {name: _vector(path, name, loaded.get(name)) for name in names}
 
 
+def mat_scalars(path, select=None):
+    """{variable name: value} of the real numeric scalar variables (1 x 1) of a MATLAB file whose names
+    `select` accepts (all by default); only those are loaded.
+
+    Parameters
+    ----------
+    path : str or Path
+        A MATLAB .mat file: v4, v5/v7 (read with scipy) or v7.3 (HDF5, read with h5py).
+    select : callable, optional
+        select(name) -> bool: which scalars to load.
+
+    Returns
+    -------
+    dict of str to float
+        In the file's order; a value may be NaN or infinite as the file has it.
+
+    Raises
+    ------
+    InputError
+        As for `mat_vectors`, or a chosen scalar whose data do not match its header (a damaged file).
+    """
+    version, listing = _listing(path)
+    path = Path(path)
+    scalars = {name: where for name, shape, kind, where in listing
+               if kind in NUMERIC_CLASSES and math.prod(shape) == 1 and (select is None or select(name))}
+    if not scalars:
+        return {}
+    loaded = {'hdf5': _hdf5_load, 'v5': _v5_load, 'v4': _v4_load}[version](path, scalars)
+    values = {}
+    for name in scalars:
+        try:
+            value = np.asarray(loaded.get(name), dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            value = np.empty(0)
+        if value.size != 1:
+            raise InputError(f'{path}: variable {name} is not the numeric scalar its header says: a damaged file')
+        values[name] = float(value[0])
+    return values
+
+
 def _vector(path, name, value):
     """The variable `name` as a finite float vector; a damaged file whose data do not match its header
     (as a flipped bit makes) as one line."""
@@ -284,6 +324,17 @@ def _vector(path, name, value):
 def _vectors(path):
     """(format: 'hdf5', 'v5' or 'v4'; {name: (length, where)}) of the numeric vectors of a MATLAB file;
     `where` is what the format's loader needs to find the variable (the bytes of a v5 one)."""
+    version, listing = _listing(path)
+    vectors = {name: (int(np.prod(shape)), where) for name, shape, kind, where in listing
+               if kind in NUMERIC_CLASSES and len(shape) <= 2 and min(shape, default=0) == 1 and np.prod(shape) > 1}
+    if not vectors:
+        shown = ', '.join(name for name, *_ in listing[:20]) + (', ...' if len(listing) > 20 else '')
+        raise InputError(f'{path}: no numeric vector variables (has {shown or "none"})')
+    return version, vectors
+
+
+def _listing(path):
+    """(format: 'hdf5', 'v5' or 'v4'; [(name, shape, class, where)]) of the variables of a MATLAB file."""
     path = regular_file(path, 'MATLAB file')
     with path.open('rb') as f:
         head = f.read(528)
@@ -295,12 +346,7 @@ def _vectors(path):
     if len(listing) > MAX_MAT_VARIABLES:
         raise InputError(f'{path}: {len(listing)} variables, more than the {MAX_MAT_VARIABLES} the suite reads '
                          f'from a MATLAB file')
-    vectors = {name: (int(np.prod(shape)), where) for name, shape, kind, where in listing
-               if kind in NUMERIC_CLASSES and len(shape) <= 2 and min(shape, default=0) == 1 and np.prod(shape) > 1}
-    if not vectors:
-        shown = ', '.join(name for name, *_ in listing[:20]) + (', ...' if len(listing) > 20 else '')
-        raise InputError(f'{path}: no numeric vector variables (has {shown or "none"})')
-    return version, vectors
+    return version, listing
 
 
 # MATLAB v5 (and v7) files: a 128-byte header, then one element per variable, miMATRIX or miCOMPRESSED (a
