@@ -158,7 +158,8 @@ def test_the_loop_tracks_the_reference_and_the_identifier_sees_aligned_samples(r
     for name, value in TRUTH.items():  # misaligned samples would bias R and L by tens of per cent
         assert getattr(final, name) == pytest.approx(value, rel=0.05), name
     status = listener.diagnostics[-1].status[0]
-    assert {kv.key for kv in status.values} == {'excitation', 'covariance_trace', 'samples', 'residual_rms'}
+    assert {kv.key for kv in status.values} == {'excitation', 'covariance_trace', 'samples', 'residual_rms',
+                                                'samples_received', 'samples_used', 'samples_lost', 'samples_skipped'}
 
 
 def test_a_run_done_twice_gives_identical_samples_and_estimates(runs):

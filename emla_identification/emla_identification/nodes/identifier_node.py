@@ -11,6 +11,11 @@ reported and skipped. Non-finite samples: the grey-box estimator gets only finit
 some are missing; the ARX one gets them in place and skips the regression rows they are in (as identify_arx
 does), so its last model equals `emla identify --model arx` on the same data.
 
+The samples are counted (SampleCounts): received, used by the estimator, lost (gaps in an input's stamps) and
+skipped (out-of-order or duplicate stamps). The counts are in each /diagnostics status (WARN when any were lost
+or skipped) and in one warning line when the first are lost or skipped, and one with the totals at the end of
+the run (and at shutdown, if they changed since): never a line per gap.
+
 Its inputs are the measured /emla/ SampleFrames, or with `input_topics` a real drive's topics of standard
 message types, e.g. ['voltage=/drive/voltage', 'current=/drive/current', 'position=/joint_states:position[slider]']
 (the syntax of `emla identify --topics`; with model arx only the input and output need mapping): each sample
@@ -28,9 +33,10 @@ from std_msgs.msg import Header
 
 from emla_core import messages, topics
 from emla_core.errors import InputError
+from emla_core.messages import read_frame_cdr
 from emla_core.nodes.alignment import AlignedSamples
 from emla_core.nodes.faults import Faults
-from emla_core.nodes.frames import subscribe_signal_frames
+from emla_core.nodes.frames import subscribe_frames, subscribe_signal_frames
 from emla_core.nodes.node import EmlaNode
 from emla_core.nodes.param_specs import Spec, declare
 from emla_core.nodes.qos import DIAGNOSTICS_QOS, LATCHED_QOS
@@ -74,6 +80,89 @@ SPECS = [
 
 
 DIAGNOSTICS_STEP = 1_000_000_000  # ns of sample time between /diagnostics statuses (ROS's usual 1 Hz)
+
+
+class SampleCounts:
+    """The samples of a node's inputs, counted frame by frame on their way in, and those the estimator used.
+
+    For each input: `received` (every sample of every frame), `lost` (the instants of a gap in its stamps: a
+    frame that starts more than 1.5 sample periods after the last sample of the one before counts the
+    samples between them as lost) and `skipped` (the samples of a frame stamped before the end of the one
+    before: out of order or a duplicate, which the frame handling drops). The totals are those of the input
+    with the most of each (the inputs carry the same instants: a frame lost on every input is lost once);
+    `used` is counted by the node (`use`).
+
+    Parameters
+    ----------
+    names : iterable of str
+        The inputs.
+    step : int
+        The sample period, ns.
+    """
+
+    def __init__(self, names, step):
+        self.step = step
+        self.received = dict.fromkeys(names, 0)
+        self.lost = dict.fromkeys(names, 0)
+        self.skipped = dict.fromkeys(names, 0)
+        self.used = 0
+        self._end = dict.fromkeys(names)  # ns: the instant after the latest frame's last sample, per input
+
+    def frame(self, name, stamp, count):
+        """Count a frame of input `name`: `count` samples from `stamp` (ns) on."""
+        self.received[name] += count
+        end = self._end[name]
+        if end is not None and stamp < end - self.step // 2:
+            self.skipped[name] += count
+            return
+        if end is not None and stamp - end > self.step // 2:  # the last sample was at end - step
+            self.lost[name] += round((stamp - end) / self.step)
+        self._end[name] = max(stamp + count * self.step, end or 0)
+
+    def use(self, count):
+        """Count `count` samples the estimator used."""
+        self.used += count
+
+    def totals(self):
+        """{'samples_received', 'samples_used', 'samples_lost', 'samples_skipped'}: int."""
+        return {'samples_received': max(self.received.values(), default=0), 'samples_used': self.used,
+                'samples_lost': max(self.lost.values(), default=0),
+                'samples_skipped': max(self.skipped.values(), default=0)}
+
+    @property
+    def faulty(self):
+        """Whether any samples were lost or skipped."""
+        totals = self.totals()
+        return bool(totals['samples_lost'] or totals['samples_skipped'])
+
+    def key_values(self):
+        """The totals as diagnostic_msgs KeyValues."""
+        return [KeyValue(key=key, value=str(value)) for key, value in self.totals().items()]
+
+    def summary(self):
+        """The totals in words, with the inputs that lost or skipped samples where not all did alike."""
+        totals = self.totals()
+        text = (f'{totals["samples_used"]} of {totals["samples_received"]} samples received used; '
+                f'{totals["samples_lost"]} lost (gaps in the stamps), {totals["samples_skipped"]} skipped '
+                f'(out-of-order or duplicate stamps)')
+        counts = {name: (self.lost[name], self.skipped[name]) for name in self.received}
+        if len(set(counts.values())) > 1:
+            text += ' [' + ', '.join(f'{name}: {lost} lost, {skipped} skipped'
+                                     for name, (lost, skipped) in counts.items() if lost or skipped) + ']'
+        return text
+
+
+class SampleFaults(Faults):
+    """Faults whose lost and out-of-order frames ('missing', 'stamp_back') are counted but not logged: the
+    node's SampleCounts says them in one line with the sample counts."""
+
+    COUNTED = ('missing', 'stamp_back')
+
+    def report(self, kind, message):
+        if kind in self.COUNTED:
+            self.counts[kind] += 1
+        else:
+            super().report(kind, message)
 
 
 def estimate(identifier):
@@ -167,27 +256,57 @@ class IdentifierNode(EmlaNode):
         self.published = None  # stamp of the latest estimate
         self.diagnosed = None  # stamp of the latest /diagnostics status
         self.end = None  # end of the run, from /emla/plant/done
+        self.counts = SampleCounts(self.signals, self.step)
+        self.counts_logged = None  # the totals of the latest warning line about lost or skipped samples
+        self.status = None  # the diagnostic status of the latest estimate published, as a function
         self.estimates = self.create_publisher(ArxModel, topics.ARX_MODEL_TOPIC, LATCHED_QOS) if self.arx \
             else self.create_publisher(ParameterEstimate, topics.PARAMETERS_TOPIC, LATCHED_QOS)
         self.effect_estimates = None if self.arx or not self.identifier.effects else \
             self.create_publisher(EffectEstimate, topics.EFFECTS_TOPIC, LATCHED_QOS)
         self.diagnostics = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS_TOPIC, DIAGNOSTICS_QOS)
-        faults = Faults(self)
+        faults = SampleFaults(self)
         together = p.measured_frames and not self.inputs
         self.measured = AlignedSamples(
             self, {name: spec.describe() for name, spec in self.inputs.items()}
             or {name: f'{topics.MEASURED_FRAMES_TOPIC} {name}' if together else topics.MEASURED_TOPICS[name]
                 for name in self.signals},
-            self.on_samples, faults, p.sample_period, self.publish_step, subscribe=not (self.inputs or together))
+            self.on_samples, faults, p.sample_period, self.publish_step, subscribe=False)
         if self.inputs:
-            StandardTopics(self, self.inputs, self.measured.receive, faults, p.sample_period)
+            StandardTopics(self, self.inputs, self.receive, faults, p.sample_period)
         elif together:
-            subscribe_signal_frames(self, topics.MEASURED_FRAMES_TOPIC, self.measured)
+            subscribe_signal_frames(self, topics.MEASURED_FRAMES_TOPIC, self)
+        else:
+            subscribe_frames(self, {name: topics.MEASURED_TOPICS[name] for name in self.signals},
+                             lambda name, cdr: self.receive(name, *_frame_args(cdr)))
         self.create_subscription(Time, topics.DONE_TOPIC, self.on_done, LATCHED_QOS)
 
     def ready(self):
         waiting = ', '.join(dict.fromkeys(spec.topic for spec in self.inputs.values()))
         return super().ready() + (f'; subscribing to {waiting} once they have a publisher' if waiting else '')
+
+    @property
+    def names(self):
+        """The inputs' names (for subscribe_signal_frames, which feeds receive())."""
+        return self.measured.names
+
+    def receive(self, name, stamp, samples, period):
+        """A frame of input `name`: counted, then aligned with the other inputs' (AlignedSamples.receive)."""
+        self.counts.frame(name, stamp, len(samples))
+        if self.counts_logged is None and self.counts.faulty:
+            self.log_counts('input samples lost or skipped so far: ')
+        self.measured.receive(name, stamp, samples, period)
+
+    def log_counts(self, prefix=''):
+        """Log the sample counts as one warning line (if some were lost or skipped and it says something new)."""
+        totals = self.counts.totals()
+        if self.counts.faulty and totals != self.counts_logged:
+            self.get_logger().warning(prefix + self.counts.summary())
+            self.counts_logged = totals
+
+    def stop(self, executor):
+        """At shutdown: the totals, if they changed since the last line about them; then EmlaNode.stop."""
+        self.log_counts('at shutdown: ')
+        super().stop(executor)
 
     def on_samples(self, start, samples):
         signals = [samples[name] for name in self.signals]
@@ -197,6 +316,7 @@ class IdentifierNode(EmlaNode):
             if start + first * self.step != self.fed:
                 self.identifier.gap()
             self.feed(*(signal[first:last] for signal in signals))
+            self.counts.use(last - first)
             self.fed = start + last * self.step
         self.covered = start + len(usable) * self.step
         if self.covered % self.publish_step == 0 or self.covered == self.end:
@@ -205,8 +325,11 @@ class IdentifierNode(EmlaNode):
     def on_done(self, msg):
         self.end = topics.stamp_to_ns(msg)
         self.measured.finish(self.end)
-        if self.covered == self.end and self.published != self.end:
-            self.publish()
+        if self.covered == self.end:
+            if self.published != self.end:
+                self.publish()
+            else:  # the final estimate went out before the end was known: its status and counts now
+                self.diagnose()
 
     def feed_arx(self, u, y):
         errors = self.identifier.update(u, y)
@@ -215,12 +338,29 @@ class IdentifierNode(EmlaNode):
             self.prediction_error = float(finite[-1])
 
     def publish(self):
-        status = self.publish_arx() if self.arx else self.publish_parameters()
-        if self.diagnosed is None or self.covered - self.diagnosed >= DIAGNOSTICS_STEP or self.covered == self.end:
-            self.diagnostics.publish(DiagnosticArray(header=Header(stamp=messages.time_msg(self.covered)),
-                                                     status=[status()]))
-            self.diagnosed = self.covered
+        self.status = self.publish_arx() if self.arx else self.publish_parameters()
         self.published = self.covered
+        self.diagnose()
+
+    def diagnose(self):
+        """The status of the latest estimate on /diagnostics with the first, then every DIAGNOSTICS_STEP of
+        sample time, and with the final one (then the counts are logged too, if samples were lost or skipped)."""
+        final = self.covered == self.end
+        if self.diagnosed is None or self.covered - self.diagnosed >= DIAGNOSTICS_STEP or \
+                final and self.diagnosed != self.end:
+            self.diagnostics.publish(DiagnosticArray(header=Header(stamp=messages.time_msg(self.covered)),
+                                                     status=[self.with_counts(self.status())]))
+            self.diagnosed = self.covered
+        if final:
+            self.log_counts('at the end of the run: ')
+
+    def with_counts(self, status):
+        """The estimator's diagnostic `status` with the sample counts; WARN if samples were lost or skipped."""
+        status.values.extend(self.counts.key_values())
+        if self.counts.faulty:
+            status.level = max(status.level, DiagnosticStatus.WARN)
+            status.message += f'; {self.counts.summary()}'
+        return status
 
     def publish_arx(self):
         """Publish the ARX model now; a function that gives its diagnostic status."""
@@ -253,6 +393,12 @@ class IdentifierNode(EmlaNode):
                 KeyValue(key='covariance_trace', value=f'{np.trace(covariance):g}'),
                 KeyValue(key='samples', value=str(self.identifier.samples)),
                 KeyValue(key='residual_rms', value=f'{self.identifier.residual_rms:g}')])
+
+
+def _frame_args(cdr):
+    """(stamp, samples, period) of a serialised SampleFrame: receive()'s arguments after the input's name."""
+    stamp, period, samples = read_frame_cdr(cdr)
+    return stamp, samples, period
 
 
 def main(args=None):
