@@ -100,6 +100,8 @@ def plot(predictions, recording, path, window=0.08):
     import matplotlib.pyplot as plt
     import numpy as np
 
+    from emla_core.plot_axes import si_axis, time_origin
+
     first = next(iter(predictions.values()))
     signals = list(first)
     figure, axes = plt.subplots(2, len(signals), figsize=(6.5 * len(signals), 6.5), squeeze=False, sharex='col')
@@ -128,12 +130,13 @@ def plot(predictions, recording, path, window=0.08):
             bottom.plot(recording.start_time + p.index[mask] * ts, (p.measured - p.predicted)[mask], color=colour,
                         lw=1, label=Path(model).stem)
         top.set_title(f'{signal}: {reference.horizon}-step-ahead prediction ({reference.horizon * ts * 1e3:g} ms)')
-        top.set_ylabel(f'{signal} ({unit})')
         top.legend(fontsize=8)
         bottom.axhline(0.0, color='0.6', lw=0.8)
-        bottom.set_ylabel(f'measured - predicted ({unit})')
-        bottom.set_xlabel('time (s)')
         bottom.legend(fontsize=8)
+        si_axis(top, 'y', signal, unit)
+        si_axis(bottom, 'y', 'measured - predicted', unit)
+        si_axis(bottom, 'x', 'time', 's', time_origin(t[0], t[-1]) if t.size else 0.0)
+    figure.suptitle(f'{Path(recording.source).name or "record"}: measured and predicted')
     figure.tight_layout()
     figure.savefig(path, dpi=90, format='png')
     plt.close(figure)

@@ -209,7 +209,10 @@ def _arx(recording, orders, forgetting, args):
     time = recording.start_time + (path.samples + len(y) - len(target) - 1) * recording.sample_period
     std = path.std
     title = f'{Path(source).name}: ARX{orders} from {columns[0]} to {columns[1]}'
-    return model.to_dict(), (time, dict(zip(names, path.theta.T)), dict(zip(names, std.T)), {}, title)
+    from emla_core.units import SIGNAL_UNITS
+    ratio = '/'.join(SIGNAL_UNITS.get(c, f'[{c}]') for c in reversed(columns))   # b: output per input
+    units = {name: '-' if name.startswith('a') else ratio for name in names}
+    return model.to_dict(), (time, dict(zip(names, path.theta.T)), dict(zip(names, std.T)), {}, title, units)
 
 
 def _signal_of(recording, column):

@@ -63,6 +63,7 @@ def plot(result, path):
     ax_i.set_ylabel('coil current [A]')
     ax_i.set_xlabel(f'time within the last {1e3 * reference.period:g} ms cycle [ms]')
     for ax in (ax_x, ax_e, ax_i):
+        ax.ticklabel_format(axis='both', style='plain', useOffset=False)   # the values are scaled already
         ax.grid(True, alpha=0.3)
         ax.legend(loc='upper right', fontsize=8)
     fig.suptitle(textwrap.fill(f'{result.scenario.name}: {result.scenario.description}', 90), fontsize=10)

@@ -4,6 +4,8 @@ from pathlib import Path
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
+from emla_core.plot_axes import si_axis, time_origin
+
 from .data import regression_rows
 from .dependence import SMOOTHING, signals_of
 from .fit import FOLDS
@@ -17,7 +19,23 @@ WINDOW = 0.08   # s of record shown in the time plots, around the largest discre
 
 def write_report(diagnosis: Diagnosis, directory: Path | str, json_text: str | None = None) -> Path:
     """Write report.md, gap.png, residuals.png, correlation.png, disagreement.png (and diagnosis.json) into
-    `directory`."""
+    `directory`. The figures' axes are in SI units with a prefix that suits them and no offset tick labels;
+    their titles name the data.
+
+    Parameters
+    ----------
+    diagnosis : Diagnosis
+        What `emla discrepancy` found.
+    directory : str or Path
+        Created if missing.
+    json_text : str, optional
+        The diagnosis as JSON, written as diagnosis.json.
+
+    Returns
+    -------
+    Path
+        The report.md written.
+    """
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
@@ -28,6 +46,11 @@ def write_report(diagnosis: Diagnosis, directory: Path | str, json_text: str | N
     figures = {'gap.png': _gap_figure(plt, diagnosis), 'residuals.png': _residual_figure(plt, before, after),
                'correlation.png': _correlation_figure(plt, before, after),
                'disagreement.png': _disagreement_figure(plt, diagnosis)}
+    name = Path(diagnosis.data.source).name or 'record'
+    for figure in figures.values():
+        title = figure.get_suptitle()
+        figure.suptitle(f'{name}: {title}' if title else name, fontsize=10)
+        figure.tight_layout()
     for name, figure in figures.items():
         figure.savefig(directory / name, dpi=90)
         plt.close(figure)
@@ -59,15 +82,14 @@ def _gap_figure(plt, diagnosis):
         top.plot(t, b.measured[ib][window], 'k', lw=1.2, label='measured')
         top.plot(t, b.predicted[ib][window], 'tab:red', lw=1, label=f'nominal (NRMSE {b.nrmse:.3g})')
         top.plot(t, a.predicted[ia][window], 'tab:blue', lw=1, ls='--', label=f'with effect (NRMSE {a.nrmse:.3g})')
-        top.set_ylabel(f'{signal} ({unit})')
         top.set_title(f'{signal}: {b.horizon}-step-ahead prediction')
         top.legend(fontsize=8)
         bottom.plot(t, (b.measured[ib] - b.predicted[ib])[window], 'tab:red', lw=1, label='nominal')
         bottom.plot(t, (a.measured[ia] - a.predicted[ia])[window], 'tab:blue', lw=1, label='with effect')
-        bottom.set_ylabel(f'prediction error ({unit})')
-        bottom.set_xlabel('time (s)')
         bottom.legend(fontsize=8)
-    figure.tight_layout()
+        si_axis(top, 'y', signal, unit)
+        si_axis(bottom, 'y', 'prediction error', unit)
+        si_axis(bottom, 'x', 'time', 's', time_origin(t[0], t[-1]))
     return figure
 
 
@@ -84,12 +106,13 @@ def _residual_figure(plt, before, after):
                 ax.errorbar(b.centers, b.mean, yerr=2 * b.error, color=colour, marker='.', ms=4, lw=1,
                             capsize=2, label=label)
             ax.axhline(0.0, color='0.6', lw=0.8)
-            ax.set_xlabel(f'{name} ({UNITS[name]})')
-            if j == 0:
-                ax.set_ylabel(f'{kind}: mean {before[kind].quantity} residual ({UNITS[before[kind].quantity]})')
+            si_axis(ax, 'x', name, UNITS[name])
+            quantity = before[kind].quantity
+            # each panel its own unit: the prefix follows its range
+            si_axis(ax, 'y', f'{kind}: mean {quantity} residual' if j == 0 else f'mean {quantity} residual',
+                    UNITS[quantity])
     axes[0, 0].legend(fontsize=8)
     figure.suptitle('One-step residuals (1 ms means) binned against the signals (bars: +-2 standard errors)')
-    figure.tight_layout()
     return figure
 
 
@@ -107,8 +130,8 @@ def _correlation_figure(plt, before, after):
                 f'cross-correlation with {before[kind].input_name}'
             ax.set_title(f'{kind}: {title}', fontsize=10)
             ax.set_xlabel('lag (samples)')
+            si_axis(ax, 'y', 'correlation', '-')
     axes[0, 0].legend(fontsize=8)
-    figure.tight_layout()
     return figure
 
 
@@ -209,11 +232,10 @@ def _disagreement_figure(plt, diagnosis):
         ax.plot(uniform_filter1d(against[name], width), uniform_filter1d(a.residual, width), ',', alpha=0.5,
                 color='tab:purple')
         ax.axhline(0.0, color='0.6', lw=0.8)
-        ax.set_xlabel(f'{name} ({UNITS.get(name, "")})')
-        ax.set_ylabel(f'{a.quantity} residual, {SMOOTHING * 1e3:g} ms means ({UNITS[a.quantity]})')
+        si_axis(ax, 'x', name, UNITS.get(name, '-'), time_origin(*ax.get_xlim()) if name == 'time' else 0.0)
+        si_axis(ax, 'y', f'{a.quantity} residual, {SMOOTHING * 1e3:g} ms means', UNITS[a.quantity])
         state = 'at the noise floor' if a.adequate else f'{a.size:.3g} {UNITS[a.quantity]} beyond the noise'
         ax.set_title(f'{equation} ({"final" if diagnosis.stages else "nominal"} model): {state}', fontsize=10)
-    figure.tight_layout()
     return figure
 
 
