@@ -36,7 +36,9 @@ equals batch least squares.
 
 Long records (a million samples and more) are read and identified in parts with bounded memory; the
 result is the same. The JSON goes to stdout unless --json is given; --plot draws the estimates converging
-(and the true values, when a simulated bag carries them). With --model-file the structure of a model file
+(and the true values, when a simulated bag carries them); --trajectory writes the estimates over time as CSV
+(time, then each parameter and its _std, SI units; with forgetting they follow a drifting plant), one row per
+--trajectory-interval (default: about 200 rows). With --model-file the structure of a model file
 (from `emla discrepancy --model-out`: the nominal model with
 the effects found) is identified on DATA, effects' parameters included; --model-out writes what was
 identified as a model file for the other commands. Data that look read in the wrong units or signs (a
@@ -47,6 +49,7 @@ the exit status stays 0.
 """ + DATA_HELP
 MODELS = ('electrical', 'mechanical', 'full', 'arx')
 PROGRESS_MIN_SAMPLES = 200_000  # smaller inputs finish too fast for a progress bar
+DEFAULT_POINTS = 200  # estimates in the trajectory (--plot, --trajectory) unless --trajectory-interval says
 
 
 def add_arguments(parser):
@@ -65,6 +68,11 @@ def add_arguments(parser):
     parser.add_argument('--output', metavar='COL', help='ARX output column (default current)')
     parser.add_argument('--json', metavar='FILE', help='write the result here instead of stdout')
     parser.add_argument('--plot', metavar='FILE.png', help='PNG of the estimates converging over time')
+    parser.add_argument('--trajectory', metavar='FILE.csv',
+                        help='grey box: CSV of the estimates over time: time (s), then each parameter and its '
+                             '<name>_std (SI), one row per interval')
+    add_number(parser, '--trajectory-interval', low=0, high=1e6, open_low=True, unit='s', metavar='S',
+               help='time between the rows of --trajectory (default: about 200 rows over the record)')
     parser.add_argument('--model-file', metavar='M.yaml',
                         help='identify the structure of this model file (its effects too) on DATA')
     parser.add_argument('--model-out', metavar='M.yaml', help='write the identified model to this model file')
@@ -75,8 +83,8 @@ def add_arguments(parser):
 def run(args):
     model, orders = _options(args)
     forgetting = args.forgetting
-    check_outputs({'--json': args.json, '--plot': args.plot, '--model-out': args.model_out},
-                  [args.data, args.model_file], args.force)
+    check_outputs({'--json': args.json, '--plot': args.plot, '--model-out': args.model_out,
+                   '--trajectory': args.trajectory}, [args.data, args.model_file], args.force)
     structure = None
     if args.model_file:
         from emla_core.model_file import read
@@ -85,13 +93,15 @@ def run(args):
         if model == 'arx':
             recording = load_data(args)
             result, plot = _arx(recording, orders, _memory(args, forgetting, recording), args)
-            identified = None
+            identified = trajectory = None
         elif structure is not None and structure.effects:
             recording = load_data(args)
             result, plot, identified = _with_effects(structure, recording, args)
+            trajectory = None
         else:
             recording, parts = read_record(args.data, lambda path: load_data(args), plain=not foreign(args))
-            result, plot, identified = _greybox(recording, parts, model, _memory(args, forgetting, recording), args)
+            result, plot, identified, trajectory = _greybox(recording, parts, model,
+                                                            _memory(args, forgetting, recording), args)
     found = [] if model == 'arx' else plausibility_warnings(result['parameters'], result['std'], recording)
     found += unknown_figures(result)
     if model != 'arx' or found or lost:   # (an ARX result has warnings only when there are some)
@@ -104,6 +114,9 @@ def run(args):
     if args.plot:
         from emla_cli.identify_plot import save_convergence_plot
         files.append((args.plot, lambda temporary: save_convergence_plot(temporary, *plot)))
+    if args.trajectory:
+        from emla_identification.trajectory_file import write_trajectory
+        files.append((args.trajectory, lambda temporary: write_trajectory(trajectory, temporary)))
     emit_json(result, args.json, files)
     return 0
 
@@ -118,9 +131,12 @@ def _options(args):
             if value is not None:
                 raise InputError(f'{flag} applies to --model arx only')
     else:
-        for flag, value in (('--model-file', args.model_file), ('--model-out', args.model_out)):
+        for flag, value in (('--model-file', args.model_file), ('--model-out', args.model_out),
+                            ('--trajectory', args.trajectory)):
             if value is not None:
                 raise InputError(f'{flag} applies to the grey-box models, not to --model arx')
+    if args.trajectory_interval is not None and args.trajectory is None:
+        raise InputError('--trajectory-interval goes with --trajectory FILE.csv')
     if (args.input is None) != (args.output is None):
         raise InputError('--input and --output go together')
     orders = None
@@ -154,8 +170,8 @@ def _command_line():
 def _with_effects(structure, recording, args):
     """(JSON, plot, Model) of a model file's structure with effects identified on `recording`."""
     from emla_identification.model import identified_structure
-    if args.memory_time is not None or args.forgetting != 1.0 or args.plot:
-        raise InputError('--forgetting, --memory-time and --plot apply to models without effects')
+    if args.memory_time is not None or args.forgetting != 1.0 or args.plot or args.trajectory:
+        raise InputError('--forgetting, --memory-time, --plot and --trajectory apply to models without effects')
     result, identified = identified_structure(structure, recording, args.data, _command_line(), args.model_file)
     return result, None, identified
 
@@ -165,15 +181,16 @@ def _greybox(recording, parts, model, forgetting, args):
 
     from emla_identification.greybox import identify
     from emla_identification.streaming import identify_chunks
+    points = _points(args, recording, parts)
     if parts is None:
         with tqdm(total=100, unit='%', desc='identify', file=sys.stderr, leave=False,
                   disable=not sys.stderr.isatty() or len(recording) < PROGRESS_MIN_SAMPLES) as bar:
-            result = identify(recording, model, forgetting,
+            result = identify(recording, model, forgetting, points=points,
                               progress=lambda done: bar.update(round(100 * done) - bar.n))
     else:
         with tqdm(unit=' samples', unit_scale=True, desc='identify', file=sys.stderr, leave=False,
                   disable=not sys.stderr.isatty()) as bar:
-            result = identify_chunks(parts, model, forgetting, points=200 if args.plot else 1,
+            result = identify_chunks(parts, model, forgetting, points=points if args.plot or args.trajectory else 1,
                                      progress=lambda samples: bar.update(samples - bar.n))
     truth = recording.truth(result.parameters)
     trajectory = result.trajectory
@@ -182,7 +199,27 @@ def _greybox(recording, parts, model, forgetting, args):
     if args.model_out:
         from emla_identification.model import from_greybox
         identified = from_greybox(result, args.data, _command_line())
-    return result.to_dict(), (trajectory.time, trajectory.parameters, trajectory.std, truth, title), identified
+    plot = (trajectory.time, trajectory.parameters, trajectory.std, truth, title)
+    return result.to_dict(), plot, identified, trajectory
+
+
+def _points(args, recording, parts):
+    """How many estimates the trajectory holds: one per --trajectory-interval over the record (a bag read in
+    parts: over the duration its metadata gives), else DEFAULT_POINTS."""
+    if args.trajectory_interval is None:
+        return DEFAULT_POINTS
+    from emla_identification.trajectory_file import trajectory_points
+    duration = len(recording) * recording.sample_period
+    if parts is not None and Path(args.data).is_dir():   # the first part of a bag: its whole span from metadata
+        from emla_core.bag.reader import bag_info
+        try:
+            duration = max(duration, float(bag_info(Path(args.data))['duration']['nanoseconds']) * 1e-9)
+        except (KeyError, TypeError, ValueError):
+            pass
+    try:
+        return trajectory_points(duration, args.trajectory_interval, recording.sample_period)
+    except ValueError as exc:
+        raise InputError(f'--trajectory-interval {args.trajectory_interval:g}: {exc}') from None
 
 
 def _arx(recording, orders, forgetting, args):
