@@ -8,6 +8,7 @@ Entry points (each takes a Recording, a CSV file or bag path, or numpy arrays, u
     RecursiveLeastSquares     the RLS estimator itself (forgetting, instruments, covariance guard)
     diagnose(data)            the model-discrepancy workflow: the missing effect, named, added, gap shown
     register_candidate(...)   add your own effect to the discrepancy workflow's library
+    trend(paths)              many recordings (a fleet, a long run) identified on Dask: parameter trends, changes
 
 Examples
 --------
@@ -26,6 +27,7 @@ _EXPORTS = {  # name -> the module that holds it
     'RecursiveLeastSquares': 'rls',
     'diagnose': 'discrepancy', 'Diagnosis': 'discrepancy', 'register_candidate': 'discrepancy',
     'Candidate': 'discrepancy', 'write_report': 'discrepancy',
+    'trend': 'fleet', 'Trend': 'fleet',
 }
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
 __all__ = sorted(_EXPORTS)
