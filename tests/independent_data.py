@@ -22,9 +22,11 @@ TRUTH = {'resistance': 3.2, 'inductance': 2.1e-3, 'emf_constant': 8.5, 'mass': 0
 EXAMPLES = Path(__file__).resolve().parent.parent / 'docs' / 'examples'
 
 
-def simulate(duration=0.5, sample_period=1e-4, seed=7, truth=TRUTH, current_noise=5e-3, resolution=1e-6):
+def simulate(duration=0.5, sample_period=1e-4, seed=7, truth=TRUTH, current_noise=5e-3, resolution=1e-6,
+             velocity_noise=None):
     """(t, voltage, current, position) in SI: voltage held over [t_k, t_k + Ts), current and position sampled
-    at t_k (noisy, quantised)."""
+    at t_k (noisy, quantised); with velocity_noise (m/s), a tachometer's velocity at t_k (Gaussian noise) too,
+    as a fifth array."""
     r, ind, km, m, b, fl = (truth[k] for k in ('resistance', 'inductance', 'emf_constant', 'mass', 'damping',
                                                  'load_force'))
     a = np.array([[-r / ind, 0.0, -km / ind], [0.0, 0.0, 1.0], [km / m, 0.0, -b / m]])
@@ -33,9 +35,11 @@ def simulate(duration=0.5, sample_period=1e-4, seed=7, truth=TRUTH, current_nois
     rng = np.random.default_rng(seed)
     n = int(round(duration / sample_period))
     state = np.zeros(3)
-    voltage, current, position = np.empty(n), np.empty(n), np.empty(n)
+    voltage, current, position, velocity = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
     previous = 0.0
     for k in range(n):
+        if velocity_noise is not None:   # (drawn only then: the other records stay as they were)
+            velocity[k] = state[2] + velocity_noise * rng.standard_normal()
         current[k] = state[0] + current_noise * rng.standard_normal()
         position[k] = np.round(state[1] / resolution) * resolution
         target = 2e-3 if (k * sample_period) % 0.04 < 0.02 else 0.0
@@ -44,7 +48,8 @@ def simulate(duration=0.5, sample_period=1e-4, seed=7, truth=TRUTH, current_nois
         u = 8000.0 * (target - position[k]) - 20.0 * speed + 0.5 * rng.standard_normal()
         voltage[k] = min(max(u, -24.0), 24.0)
         state = ad @ state + bd @ np.array([voltage[k], fl])
-    return sample_period * np.arange(n), voltage, current, position
+    t = sample_period * np.arange(n)
+    return (t, voltage, current, position) if velocity_noise is None else (t, voltage, current, position, velocity)
 
 
 def write_csv(path, t, voltage, current, position):

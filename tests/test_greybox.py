@@ -13,9 +13,9 @@ from emla_bench import scenarios
 from emla_core.errors import InputError
 from emla_core.parameters import TABLE1
 from emla_core.recording import Recording
+from emla_identification.discrepancy.first_order import emf_lag
 from emla_identification.greybox import identify
 from emla_identification.online import OnlineIdentifier
-from emla_identification.regressors import emf_lag
 from emla_sim.datasets import TABLE2, closed_loop, force_driven, random_parameters
 from emla_sim.effects import ParameterChange
 
@@ -129,7 +129,8 @@ def test_online_final_estimate_equals_offline(memory):
         assert online.samples == len(recording)
         for name, value in offline.parameters.items():
             assert values[name] == pytest.approx(value, rel=1e-8), name
-            assert std[name] == pytest.approx(offline.std[name], rel=1e-6), name
+            # the noise model inverts nearly collinear normal equations (see test_streaming.assert_same_result)
+            assert std[name] == pytest.approx(offline.std[name], rel=1e-5), name
 
 
 def test_online_memory_follows_a_resistance_rise():

@@ -53,16 +53,17 @@ def test_friction_and_spring_converge_on_emla_sim_closed_loop_data():
     assert abs(values['coulomb_force'] - 1.0) < 4 * std['coulomb_force']
 
 
-def test_with_forgetting_one_the_estimate_is_batch_least_squares_with_the_added_columns(independent):
+def test_with_forgetting_one_the_estimate_is_the_batch_solution_with_the_added_columns(independent):
     recording, _ = independent
     online = feed(OnlineIdentifier(recording.sample_period, effects=EFFECTS), recording, frame=333)
     stream = RowStream(('mechanical',), recording.sample_period)
-    phi, y, _ = stream.rows(recording.signals)['mechanical']
+    phi, y, zeta = stream.rows(recording.signals)['mechanical']
     columns, skipped = EffectColumns(columns_for(EFFECTS, 1.0), recording.sample_period).rows(
         recording.signals['position'])
-    phi, y = np.hstack((phi, columns))[~skipped], y[~skipped]
+    # instrumental variables: the columns are their own instruments
+    phi, zeta, y = np.hstack((phi, columns))[~skipped], np.hstack((zeta, columns))[~skipped], y[~skipped]
     # the recursion's prior (theta 0, covariance 1e6 I) is the ridge term 1e-6 I of the normal equations
-    batch = np.linalg.solve(phi.T @ phi + 1e-6 * np.eye(phi.shape[1]), phi.T @ y)
+    batch = np.linalg.solve(zeta.T @ phi + 1e-6 * np.eye(phi.shape[1]), zeta.T @ y)
     assert online._rls['mechanical'].theta == pytest.approx(batch, rel=1e-6)
 
 

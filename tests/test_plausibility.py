@@ -250,12 +250,13 @@ def test_a_record_shorter_than_the_prediction_horizon_reports_what_it_cannot(cle
 
 
 def test_a_voltage_that_cannot_drive_the_current_is_not_taken_for_a_unit_slip(clean, tmp_path, capsys):
-    """A constant 12 V (a supply logged instead of the coil voltage): the identified R needs far more voltage
-    than that to drive the current. A unit slip keeps R I_peak / U_peak, so no unit is advised."""
+    """A constant 12 V (a supply logged instead of the coil voltage) cannot drive the current it was logged
+    with: `identify` refuses it in one line (a held voltage that never changes does not excite the electrical
+    equation, whose rows have a constant term), and the discrepancy workflow finds no model."""
     t, voltage, current, position = clean
     path = plain_csv(tmp_path / 'supply.csv', (t, np.full_like(voltage, 12.0), current, position))
-    (warning,) = warned(capsys, 'identify', path)
-    assert 'is the voltage the one across the coil' in warning and '--units' not in warning
+    status, _, err = run(capsys, 'identify', path)
+    assert status == 2 and err.count('\n') == 1 and 'do not excite the electrical equation' in err
     status, _, err = run(capsys, 'discrepancy', plain_csv(tmp_path / 'none.csv', (t, voltage, 0 * current, position)))
     assert status == 2 and err.count('\n') == 1 and 'no finite estimate' in err and 'nan' not in err
 

@@ -96,18 +96,19 @@ def test_row_stream_gives_the_rows_of_the_whole_record():
         zeta = instruments(kind, recording.signals, recording.sample_period)
         expected = np.column_stack(whole if zeta is None else (*whole, zeta))
         np.testing.assert_array_equal(np.concatenate(blocks), expected)
-    assert got['electrical'][0].shape[1] == 9 and got['mechanical'][0].shape[1] == 5  # instruments for electrical
+    assert got['electrical'][0].shape[1] == 9 and got['mechanical'][0].shape[1] == 13  # both instrumented
 
 
 def assert_same_result(streamed, whole):
-    """Parameters to 1e-10; std to 1e-7, the spread greybox.identify itself shows between its own summation
-    orders (its finite-difference Jacobian of the physical parameters amplifies rounding)."""
+    """Parameters to 1e-10; std to 1e-5: the noise model inverts the mechanical regression's normal equations,
+    whose free coefficients are nearly collinear at 10 kHz (regressors.FIRST_ORDER), which carries the rounding of
+    different summation orders into the uncertainties."""
     assert streamed.model == whole.model and streamed.samples == whole.samples
     assert streamed.sample_period == whole.sample_period and streamed.forgetting == whole.forgetting
     assert list(streamed.parameters) == list(whole.parameters)
     for name, value in whole.parameters.items():
         assert streamed.parameters[name] == pytest.approx(value, rel=1e-10, abs=1e-12), name
-        assert streamed.std[name] == pytest.approx(whole.std[name], rel=1e-7), name
+        assert streamed.std[name] == pytest.approx(whole.std[name], rel=1e-5), name
 
 
 @pytest.mark.parametrize('model, lam', [(None, 1.0), (None, 0.9995), ('electrical', 1.0), ('mechanical', 1.0)])
@@ -144,13 +145,16 @@ def test_streaming_refuses_what_identify_refuses():
         identify_chunks(parts(still))
 
 
-def test_online_values_equal_the_estimate():
+def test_online_values_agree_with_the_estimate():
+    """values() weighs the coefficients as if the rows' errors were white (no noise model): a less efficient fit
+    of the same parameters, within two of estimate()'s standard deviations of it."""
     recording, _ = closed_loop(TABLE1.replace(load_force=5.0), duration=0.2, dither=0.2)
     online = OnlineIdentifier(recording.sample_period)
     for start, stop in pieces(len(recording), [100]):
         online.update(**{k: v[start:stop] for k, v in recording.signals.items()})
-    values, _ = online.estimate()
-    assert online.values() == pytest.approx(values, rel=1e-12)
+    values, std = online.estimate()
+    for name, value in online.values().items():
+        assert abs(value - values[name]) < 2.0 * std[name], name
 
 
 def staggered_bag(path, n=3000, frame=10, split_size=2 * 2**20):
@@ -251,5 +255,5 @@ def test_emla_identify_streams_a_long_record_to_the_same_answer(run_bag, monkeyp
         assert result['sample_period'] == short_csv['sample_period']
         for name, value in short_csv['parameters'].items():
             assert result['parameters'][name] == pytest.approx(value, rel=1e-10), name
-            assert result['std'][name] == pytest.approx(short_csv['std'][name], rel=1e-7), name
+            assert result['std'][name] == pytest.approx(short_csv['std'][name], rel=1e-5), name
     assert len(streamed) == 2 and (tmp_path / 'plot.png').exists()

@@ -1,4 +1,4 @@
-"""`emla identify --trajectory FILE.csv` (issue 21): the estimates over time, one row per interval, columns time
+"""`emla identify --trajectory FILE.csv` (issue 21): the estimates over time, one row per interval, columns t
 then each parameter and its _std in SI units; the last row is the JSON's result; with forgetting on a record
 whose resistance drifts (simulated here, independently of emla_sim), the rows follow the drift."""
 import json
@@ -50,7 +50,7 @@ def steady(tmp_path_factory):
 
 def test_the_last_row_is_the_result_and_time_increases(tmp_path, steady):
     result, header, rows = identified(tmp_path, steady)
-    assert header == ['time'] + [c for name in NAMES for c in (name, f'{name}_std')]
+    assert header == ['t'] + [c for name in NAMES for c in (name, f'{name}_std')]
     assert 190 <= len(rows) <= 210                           # the default: about 200 rows
     time = rows[:, 0]
     assert np.all(np.diff(time) > 0) and 0.0 < time[0] and time[-1] == pytest.approx(0.5 - TS, abs=TS)
@@ -103,7 +103,7 @@ def test_with_forgetting_the_resistance_follows_its_drift(tmp_path):
     time, estimate = rows[:, 0], rows[:, header.index('resistance')]
     true = np.interp(time, t, resistance)
     settled = time > 0.15                                     # three memory times
-    assert np.max(np.abs(estimate[settled] / true[settled] - 1)) < 0.02
+    assert np.max(np.abs(estimate[settled] / true[settled] - 1)) < 0.01   # the issue: within 1 % after convergence
     rise = estimate[-1] - estimate[np.argmax(settled)]
     assert rise == pytest.approx(true[-1] - true[np.argmax(settled)], rel=0.25)
     # without forgetting the estimate settles on the mean instead of following
@@ -115,10 +115,10 @@ def test_write_trajectory_and_its_table(tmp_path):
     trajectory = Trajectory(time=np.array([0.01, 0.02]), parameters={'resistance': np.array([4.1, 4.000000000000001])},
                             std={'resistance': np.array([np.nan, 1e-5])})
     write_trajectory(trajectory, tmp_path / 't.csv')
-    text = 'time,resistance,resistance_std\n0.01,4.1,\n0.02,4.000000000000001,1e-05\n'   # NaN: an empty cell
+    text = 't,resistance,resistance_std\n0.01,4.1,\n0.02,4.000000000000001,1e-05\n'   # NaN: an empty cell
     assert (tmp_path / 't.csv').read_text() == text
     table = trajectory_table(trajectory)
-    assert table.column_names == ['time', 'resistance', 'resistance_std']
+    assert table.column_names == ['t', 'resistance', 'resistance_std']
     assert table.column('resistance_std').to_pylist() == [None, 1e-5]
 
 

@@ -7,7 +7,7 @@ import numpy as np
 from emla_core.errors import InputError
 
 from .plausibility import SI_UNITS
-from .regressors import COLUMNS, HISTORY, SIGNALS, default_model, regressions_for
+from .regressors import COLUMNS, FIRST_ORDER, HISTORY, SIGNALS, default_model, regressions_for
 from .rls import forgetting_factor
 
 MIN_ROWS = 16           # regression rows (samples - HISTORY) below which a record is too short
@@ -15,7 +15,7 @@ _MAX_CONDITION = 1e12   # normalised information matrix above this: a parameter 
 # Typical SI magnitudes (sample period s, peaks V, A, m, N). A record more than SPAN from them, or with a
 # sample period outside SAMPLE_PERIODS, is refused: its unit is far off, and the regressions (which divide
 # differences by Ts^2 and square them) and the discrepancy fit lose the magnitudes they are made for.
-TYPICAL = {'t': 1e-4, 'voltage': 10.0, 'current': 1.0, 'position': 1e-3, 'force': 1.0}
+TYPICAL = {'t': 1e-4, 'voltage': 10.0, 'current': 1.0, 'position': 1e-3, 'velocity': 0.1, 'force': 1.0}
 SPAN = 1e9
 SAMPLE_PERIODS = (1e-9, 1e3)
 
@@ -103,7 +103,9 @@ def check_length(samples, model, source):
 def check_excitation(gram, kind, source):
     """InputError when the regressors do not excite every coefficient (e.g. the actuator never moved); gram:
     sum of phi phi' over the rows."""
+    T, names = FIRST_ORDER.get(kind, (np.eye(len(gram)), COLUMNS[kind]))
+    gram = T @ gram @ T.T
     scale = np.sqrt(np.diag(gram))
     if np.any(scale == 0) or np.linalg.cond(gram / np.outer(scale, scale)) > _MAX_CONDITION:
         raise InputError(f'{source}: the data do not excite the {kind} equation enough to identify '
-                         f'{", ".join(COLUMNS[kind])}')
+                         f'{", ".join(names)}')

@@ -25,11 +25,15 @@ from emla_core.recording import Recording
 
 from . import offline
 from .checks import TYPICAL, check_excitation, checked, numerical_failures
+from .fit_check import check_fit
 from .moments import RowMoments
-from .physical import physical
+from .physical import fit, reported
 from .regressors import HISTORY, instruments, rows
 
 RESCALE_BEYOND = 2.0 ** 16
+MEMORY_SPANS = 2          # memory times of the record the fit of an estimate with forgetting is checked on
+MIN_FIT_SAMPLES = 256     # samples below which the fit is not checked (too short for its spectra)
+UNRESOLVED = 0.1          # one-sigma over |value| above which a parameter is reported as not resolved
 
 
 @dataclass
@@ -51,16 +55,39 @@ class GreyBoxResult:
     sample_period: float
     forgetting: float
     trajectory: Trajectory = field(repr=False, default=None)
+    fit: dict = field(repr=False, default_factory=dict)   # {equation: fit_check.EquationFit}
+
+    def unresolved(self) -> list:
+        """The parameters the data do not resolve: a one-sigma above UNRESOLVED of the value (the inductance of
+        a coil whose L/R is far below the sample period)."""
+        return [name for name, value in self.parameters.items()
+                if name != 'load_force' and not self.std[name] < UNRESOLVED * abs(value)]
+
+    def warnings(self) -> list:
+        """One line for each equation that does not fit the data and for each unresolved parameter."""
+        lines = [line for line in (f.warning() for f in self.fit.values()) if line]
+        for name in self.unresolved():
+            lines.append(f'the data do not resolve the {name}: {self.parameters[name]:.4g} +- {self.std[name]:.2g}'
+                         + (f' (the coil\'s L/R is {self.time_constant() / self.sample_period:.2g} sample periods)'
+                            if name == 'inductance' else ''))
+        return lines
+
+    def time_constant(self) -> float:
+        """L/R of the estimate (s), NaN without them."""
+        p = self.parameters
+        return p['inductance'] / p['resistance'] if {'inductance', 'resistance'} <= set(p) else math.nan
 
     def to_dict(self) -> dict:
         """The `emla identify` JSON object."""
         return {'model': self.model, 'samples': self.samples, 'sample_period': self.sample_period,
-                'parameters': dict(self.parameters), 'std': dict(self.std)}
+                'parameters': dict(self.parameters), 'std': dict(self.std),
+                'fit': {name: f.to_dict() for name, f in self.fit.items()}, 'unresolved': self.unresolved()}
 
 
 def identify(data: Recording | Path | str | None = None, model: str | None = None, forgetting: float = 1.0, *,
              memory_time: float | None = None, sample_period: float | None = None, voltage: ArrayLike | None = None,
              current: ArrayLike | None = None, position: ArrayLike | None = None, force: ArrayLike | None = None,
+             velocity: ArrayLike | None = None,
              initial_covariance: float = 1e6, points: int = 200,
              progress: Callable[[float], object] | None = None) -> GreyBoxResult:
     """Identify the physical parameters of an actuator from a whole record of its signals.
@@ -85,9 +112,10 @@ def identify(data: Recording | Path | str | None = None, model: str | None = Non
         Memory time constant tau in s instead of `forgetting` (lambda = 1 - Ts / tau).
     sample_period : float, optional
         Sample period Ts in s of the arrays (required with arrays; a Recording or file carries its own).
-    voltage, current, position, force : array_like, optional
-        Uniformly sampled signals of equal length in V, A, m and N: the coil voltage as applied over each
-        sample interval (held), the coil current and the position at the interval's start.
+    voltage, current, position, force, velocity : array_like, optional
+        Uniformly sampled signals of equal length in V, A, m, N and m/s: the coil voltage as applied over each
+        sample interval (held), the coil current and the position at the interval's start. A velocity (a
+        tachometer's, sampled like the current) serves in place of the position.
     initial_covariance : float, optional
         Prior covariance of the regression coefficients (P0 = c I).
     points : int, optional
@@ -118,7 +146,7 @@ def identify(data: Recording | Path | str | None = None, model: str | None = Non
     (4.0, 0.036)
     """
     recording = as_recording(data, sample_period=sample_period, voltage=voltage, current=current,
-                             position=position, force=force)
+                             position=position, force=force, velocity=velocity)
     model, kinds, lam = checked(recording, model, forgetting, memory_time)
     scales = unit_scales(recording)
     with numerical_failures(recording.source, f'the {model} model cannot be identified'):
@@ -144,7 +172,8 @@ def unit_scales(recording):
 def parameter_scales(names, scales):
     """The factor each parameter of `names` takes from the signals' `scales` (by its dimension: R in V/A, Km in
     V s/m, m in N s^2/m with N = V A s/m unless a force is measured, ...)."""
-    u, i, x, t = (scales.get(k, 1.0) for k in ('voltage', 'current', 'position', 't'))
+    u, i, t = (scales.get(k, 1.0) for k in ('voltage', 'current', 't'))
+    x = scales['position'] if 'position' in scales else scales.get('velocity', 1.0) * t
     force = scales['force'] if 'force' in scales else u * i * t / x
     factors = {'resistance': u / i, 'inductance': u * t / i, 'emf_constant': u * t / x, 'mass': force * t * t / x,
                'damping': force * t / x, 'load_force': force}
@@ -169,7 +198,9 @@ def _unscaled(result, scales):
 
     def unscaled(values):
         return {k: v * factor[k] for k, v in values.items()}
-    return replace(result, parameters=unscaled(result.parameters), std=unscaled(result.std),
+    u, force = scales.get('voltage', 1.0), parameter_scales(['load_force'], scales)[0]
+    fit = {name: f.scaled(u if name == 'electrical' else force) for name, f in result.fit.items()}
+    return replace(result, parameters=unscaled(result.parameters), std=unscaled(result.std), fit=fit,
                    covariance=result.covariance * np.outer(vector, vector), sample_period=result.sample_period * t,
                    trajectory=replace(trajectory, time=trajectory.time * t, parameters=unscaled(trajectory.parameters),
                                       std=unscaled(trajectory.std)))
@@ -203,11 +234,15 @@ def _identify(recording, model, kinds, lam, initial_covariance, points, report):
 def result(model, snapshots, ends, recording, samples, forgetting, done=lambda j: None):
     """The GreyBoxResult from {kind: Statistics} after rows [0, end) for each of `ends` (the last: all rows).
 
-    recording: the record or its first part (source, start time, sample period); done(j) after snapshot j."""
+    recording: the record or its first part (source, start time, sample period, and the signals the fit is
+    checked on, fit_check.py); done(j) after snapshot j. Each snapshot's fit starts from the one before, but the
+    last (the estimate) from physical.starts_for, so that it does not depend on how many came before."""
     source, ts = recording.source or 'recording', recording.sample_period
-    values, stds = [], []
+    values, stds, q = [], [], None
     for j, statistics in enumerate(snapshots):
-        names, value, covariance = physical(model, statistics, ts)
+        warm = j < len(snapshots) - 1 and q is not None and np.all(np.isfinite(q))
+        q, covariance = fit(statistics, ts, start=q if warm else None)
+        names, value, covariance = reported(model, statistics, q, covariance)
         values.append(value)
         stds.append(np.sqrt(np.diag(covariance)))
         done(j)
@@ -218,4 +253,16 @@ def result(model, snapshots, ends, recording, samples, forgetting, done=lambda j
                             parameters=dict(zip(names, values.T)), std=dict(zip(names, stds.T)))
     return GreyBoxResult(model=model, parameters={k: float(v) for k, v in zip(names, values[-1])},
                          std={k: float(s) for k, s in zip(names, stds[-1])}, covariance=covariance,
-                         samples=samples, sample_period=ts, forgetting=forgetting, trajectory=trajectory)
+                         samples=samples, sample_period=ts, forgetting=forgetting, trajectory=trajectory,
+                         fit=_checked_fit(recording, snapshots[-1], q, forgetting))
+
+
+def _checked_fit(recording, statistics, q, forgetting):
+    """fit_check.check_fit on the record (with forgetting: on its last MEMORY_SPANS memory times, which the final
+    estimate describes); {} when too few samples are at hand."""
+    signals = recording.signals
+    keep = len(recording) if forgetting == 1.0 else int(MEMORY_SPANS / (1.0 - forgetting))
+    signals = {name: np.asarray(values)[-keep:] for name, values in signals.items()}
+    if min(len(v) for v in signals.values()) < MIN_FIT_SAMPLES:
+        return {}
+    return check_fit(signals, statistics, q, recording.sample_period)

@@ -13,8 +13,8 @@ from emla_core.model_file import Model, ModelEffect, provenance
 
 from .discrepancy.candidates import CANDIDATES
 from .discrepancy.data import Data
+from .discrepancy.first_order import emf_lag
 from .discrepancy.fit import NOMINAL, ModelOnData, fit, physical, with_systematic
-from .regressors import emf_lag
 
 
 def from_greybox(result, data, command):

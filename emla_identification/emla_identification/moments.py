@@ -65,25 +65,27 @@ _TILE = 512  # rows per tile of _lag_products: a tile's columns stay in the firs
 @numba.njit(cache=True, fastmath={'reassoc', 'contract'})  # reassociated sums: vectorised dot products
 def _lag_products(tail, z, weights, moments):
     """moments[d] += sum_k weights_k z_k z_(k-d)' over the rows z_k of z, tail holding the HISTORY rows before
-    (weights empty: all ones). Tile by tile, the rows are copied into columns: contiguous dot products."""
+    (weights empty: all ones). Tile by tile, the rows are copied into columns: contiguous dot products. The
+    history is the tail's length, not the global (numba would freeze a global into its cached compilation)."""
     m, width = z.shape
+    history = tail.shape[0]
     ahead = np.empty((width, _TILE))
-    behind = np.empty((width, _TILE + HISTORY))  # the tile's rows with the HISTORY before them
+    behind = np.empty((width, _TILE + history))  # the tile's rows with the history before them
     for start in range(0, m, _TILE):
         n = min(_TILE, m - start)
-        for k in range(n + HISTORY):
-            row = z[start - HISTORY + k] if start - HISTORY + k >= 0 else tail[k]
+        for k in range(n + history):
+            row = z[start - history + k] if start - history + k >= 0 else tail[k]
             for i in range(width):
                 behind[i, k] = row[i]
         if weights.size:
             for i in range(width):
                 for k in range(n):
-                    ahead[i, k] = weights[start + k] * behind[i, HISTORY + k]
+                    ahead[i, k] = weights[start + k] * behind[i, history + k]
         for i in range(width):
-            a = ahead[i, :n] if weights.size else behind[i, HISTORY:HISTORY + n]
-            for d in range(HISTORY + 1):
+            a = ahead[i, :n] if weights.size else behind[i, history:history + n]
+            for d in range(history + 1):
                 for j in range(width):
-                    b = behind[j, HISTORY - d:HISTORY - d + n]
+                    b = behind[j, history - d:history - d + n]
                     total = 0.0
                     for k in range(n):
                         total += a[k] * b[k]

@@ -13,11 +13,14 @@ import numpy as np
 from .regressors import HISTORY, noise_stencils
 
 
-def _noise_filters(kind, T, theta, sample_period, effects=()):
-    """{signal: c}: the residual of row k with coefficients T' theta gets sum_j c_j (noise of sample k - 2 + j);
+def noise_filters(kind, T, theta, sample_period, effects=()):
+    """{signal: c}: the residual of row k with coefficients T' theta gets sum_j c_j (noise of sample k - LEAD + j);
     effects: the extra columns' (online_effects.py)."""
     coefficients = T.T @ theta
-    return {name: dy - np.column_stack([dphi] + [e.stencil(name) for e in effects]) @ coefficients
+    def column(effect, name):   # an effect's stencil covers samples k-2 .. k+2 (online_effects.py)
+        stencil = effect.stencil(name)
+        return np.pad(stencil, (HISTORY + 1 - len(stencil), 0))
+    return {name: dy - np.column_stack([dphi] + [column(e, name) for e in effects]) @ coefficients
             for name, (dy, dphi) in noise_stencils(kind, sample_period).items()}
 
 
@@ -36,7 +39,7 @@ def noise_variances(statistics, restricted, sample_period):
     equations, targets = [], []
     for kind, (T, theta) in restricted.items():
         stats = statistics[kind]
-        filters = _noise_filters(kind, T, theta, sample_period, stats.effects)
+        filters = noise_filters(kind, T, theta, sample_period, stats.effects)
         products = stats.residual_products(T, theta)
         scale = 1.0 / products[0] if products[0] > 0 else 0.0  # each regression's equations in its own units
         equations.append(scale * stats.weight * np.column_stack(
@@ -61,7 +64,7 @@ def coefficient_covariances(statistics, restricted, variances, sample_period):
         stats = statistics[kind]
         decay = stats.forgetting ** np.arange(HISTORY + 1)
         middle = sum(variances[name] * np.einsum('d,dij->ij', decay * _autocorrelation(c), stats.instrument_lags)
-                     for name, c in _noise_filters(kind, T, theta, sample_period, stats.effects).items())
+                     for name, c in noise_filters(kind, T, theta, sample_period, stats.effects).items())
         inverse = np.linalg.inv(T @ stats.information @ T.T)
         covariances[kind] = inverse @ T @ middle @ T.T @ inverse.T
     return covariances

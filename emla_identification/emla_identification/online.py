@@ -8,8 +8,8 @@ with forgetting 1 the final estimate equals greybox.identify on the same samples
 samples, gap() restarts the rows on the next frame, so that none spans the gap.
 
 Effects (a list of names and/or a model file's Model): those linear in their parameters are estimated along
-with the nominal ones, as extra columns of the mechanical regression (online_effects.py, which says which
-can and which cannot); their parameters follow the nominal ones in estimate() and values().
+with the nominal ones, as extra columns of every regression (online_effects.py, which says which can and which
+cannot); their parameters follow the nominal ones in estimate() and values().
 """
 from __future__ import annotations
 
@@ -20,9 +20,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
+from emla_core.errors import InputError
+
 from .moments import RowMoments
 from .online_effects import EffectColumns, columns_for
-from .physical import physical, physical_values
+from .physical import fit, reported
 from .regressors import COLUMNS, INSTRUMENTED, SIGNALS, RowStream, regressions_for
 from .rls import RecursiveLeastSquares, forgetting_factor
 
@@ -36,8 +38,8 @@ class OnlineIdentifier:
     signals: the signals the frames carry, by default the coil signals (voltage, current, position); give
     ('force', 'position') for mechanical-only data. Memory: a forgetting factor or a memory time constant
     (s); neither means no forgetting. update() costs about 1.5 us per sample (full model, frames of 100);
-    estimate() about 0.5-2 ms, so call it at the rate the uncertainties are used; values() gives the parameters
-    alone, without the noise model, for about half of that (what remains is tying h, physical.physical_values).
+    estimate() about 1-3 ms, so call it at the rate the uncertainties are used; values() gives the parameters
+    alone, without the noise model (physical.fit with noise=False, started from the last parameters).
     effects: effect names and/or a Model (its effects), estimated online (online_effects.py); an InputError
     names those that cannot be.
     """
@@ -56,8 +58,9 @@ class OnlineIdentifier:
         effects = (effects,) if isinstance(effects, str) else getattr(effects, 'effects', effects)
         columns = columns_for(effects, forgetting_factor(forgetting, memory_time, self.sample_period))
         self._effects = EffectColumns(columns, self.sample_period) if columns else None
-        self._effect_kind = self.kinds[-1]  # the mechanical (or force) regression takes the effects' columns
-        self._rls = {kind: RecursiveLeastSquares(len(COLUMNS[kind]) + (kind == self._effect_kind) * len(columns),
+        if columns and 'velocity' in SIGNALS[self.kinds[0]]:
+            raise InputError('effects are estimated online from the position; this identifier has the velocity')
+        self._rls = {kind: RecursiveLeastSquares(len(COLUMNS[kind]) + len(columns),
                                                  forgetting=forgetting, memory_time=memory_time,
                                                  sample_period=self.sample_period,
                                                  initial_covariance=initial_covariance)
@@ -74,9 +77,9 @@ class OnlineIdentifier:
         for rls in self._rls.values():
             rls.reset()
         self._moments = {kind: RowMoments(rls.n, rls.forgetting, kind in INSTRUMENTED,
-                                          self._effects.columns if kind == self._effect_kind and self._effects
-                                          else ())
+                                          self._effects.columns if self._effects else ())
                          for kind, rls in self._rls.items()}
+        self._last = None   # the last parameters formed: where the next fit starts
         self._stream.reset()
         if self._effects:
             self._effects.restart()
@@ -91,15 +94,19 @@ class OnlineIdentifier:
             self._effects.restart()
 
     def update(self, voltage: ArrayLike | None = None, current: ArrayLike | None = None,
-               position: ArrayLike | None = None, *, force: ArrayLike | None = None) -> None:
+               position: ArrayLike | None = None, *, force: ArrayLike | None = None,
+               velocity: ArrayLike | None = None) -> None:
         """Feed one frame (1-D arrays of equal length of the identifier's signals); see gap() when it does not
         follow on from the last one."""
-        given = {'voltage': voltage, 'current': current, 'position': position, 'force': force}
+        given = {'voltage': voltage, 'current': current, 'position': position, 'force': force, 'velocity': velocity}
         if any(given[name] is None for name in self._stream.signals):
             raise ValueError(f'the {self.model} identifier needs {", ".join(self._stream.signals)} in each frame')
+        effects = self._effects.rows(given['position']) if self._effects else None
         for kind, (phi, y, zeta) in self._stream.rows(given).items():
-            if kind == self._effect_kind and self._effects:
-                phi, y = self._with_effects(phi, y, given['position'])
+            if effects is not None:   # the columns are their own instruments
+                columns, stuck = effects
+                phi, y = np.hstack((phi, columns)), y if stuck is None else np.where(stuck, np.nan, y)
+                zeta = None if zeta is None else np.hstack((zeta, columns))
             rls = self._rls[kind]
             errors = rls.update_block(phi, y, zeta)
             z = np.column_stack((phi, y))
@@ -107,15 +114,11 @@ class OnlineIdentifier:
             z[skipped] = 0.0
             self._moments[kind].update(z, None if zeta is None else np.where(skipped[:, None], 0.0, zeta))
             errors = errors[np.isfinite(errors)]  # the recursion skips non-finite samples
-            if kind == 'electrical' and len(errors):
-                # a-priori current error over beta = voltage-equation error (V)
+            if kind.startswith('electrical') and len(errors):
+                # a-priori current error over the voltage's coefficient (beta) = voltage-equation error (V)
                 with np.errstate(all='ignore'):  # NaN before beta is identified
-                    self._residual_rms = float(np.sqrt(errors @ errors / len(errors)) / rls.theta[1])
-
-    def _with_effects(self, phi, y, position):
-        """The rows with the effects' columns; the rows they skip (online_effects.py) get a NaN output."""
-        columns, stuck = self._effects.rows(position)
-        return np.hstack((phi, columns)), y if stuck is None else np.where(stuck, np.nan, y)
+                    self._residual_rms = float(np.sqrt(errors @ errors / len(errors))
+                                               / rls.theta[COLUMNS[kind].index('voltage')])
 
     @property
     def samples(self) -> int:
@@ -134,14 +137,22 @@ class OnlineIdentifier:
 
     def full_estimate(self) -> tuple[dict[str, float], dict[str, float], tuple[Sequence[str], np.ndarray]]:
         """estimate() and (names, covariance matrix) of the parameters, from one evaluation of the noise model."""
-        names, values, covariance = physical(self.model, self._statistics(), self.sample_period)
+        names, values, covariance = reported(self.model, *self._fit(noise=True))
         return (dict(zip(names, values.tolist())), dict(zip(names, np.sqrt(np.diag(covariance)).tolist())),
                 (names, covariance))
 
     def values(self) -> dict[str, float]:
         """{name: value} as estimate() gives them, without the uncertainties' noise model (for per-frame use)."""
-        names, values = physical_values(self.model, self._statistics(), self.sample_period)
+        names, values, _ = reported(self.model, *self._fit(noise=False))
         return dict(zip(names, values.tolist()))
+
+    def _fit(self, noise):
+        """(statistics, q, covariance of q), the fit started from the last finite q."""
+        statistics = self._statistics()
+        q, covariance = fit(statistics, self.sample_period, noise, self._last)
+        if np.all(np.isfinite(q)):
+            self._last = q
+        return statistics, q, covariance
 
     def _statistics(self):
         return {kind: self._moments[kind].statistics(rls.theta, rls.covariance) for kind, rls in self._rls.items()}

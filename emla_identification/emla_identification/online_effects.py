@@ -1,10 +1,11 @@
 """Effects the online identifier estimates along with the nominal parameters: those of the physics layer with an
-online column (emla_core.physics, `Effect.online`), as extra columns of the mechanical (or force) regression of
-regressors.py; each column's form, and the reason an effect cannot run online, are in the effect's own file.
+online column (emla_core.physics, `Effect.online`), as extra columns of every regression of regressors.py;
+each column's form, and the reason an effect cannot run online, are in the effect's own file.
 
-The columns enter with coefficient p / m and p is formed from it as the load force is (physical.py); an effect
-followed by the forgetting instead (`online_by_forgetting`: the resistance drift) needs a forgetting factor
-below 1.
+A column is -f, f the effect's force per unit parameter about sample k (opposing +x); it enters each regression
+as a load force does, with coefficient -(the regression's gain of a unit load force) p (physical.py; p / m in
+the force regression). An effect followed by the forgetting instead (`online_by_forgetting`: the resistance
+drift) needs a forgetting factor below 1. Columns need the position: a velocity recording runs without them.
 
 Uncertainties: the sensor-noise model (noise.py) carries noise into a column through its stencils; the
 friction's direction is taken as exact (its skipped rows keep noise from flipping it). The triangle weights
@@ -16,7 +17,7 @@ import numpy as np
 from emla_core.errors import InputError
 from emla_core.physics import EFFECTS
 
-from .regressors import HISTORY
+from .regressors import HISTORY, LEAD
 
 
 def online_effects():
@@ -48,7 +49,7 @@ def columns_for(effects, forgetting):
 
 
 class EffectColumns:
-    """The extra columns of the mechanical regression frame by frame, aligned with regressors.RowStream's rows
+    """The extra columns of the regressions frame by frame, aligned with regressors.RowStream's rows
     (each frame with the last HISTORY samples of the previous one in front)."""
 
     def __init__(self, columns, sample_period):
@@ -64,7 +65,7 @@ class EffectColumns:
         """(columns, rows to skip or None) of the rows the new frame's positions complete."""
         x = np.concatenate((self._tail, np.asarray(position, dtype=float).reshape(-1)))
         self._tail = x[-HISTORY:]
-        lagged = [x[j:len(x) - HISTORY + j] for j in range(HISTORY + 1)]
+        lagged = [x[j:len(x) - HISTORY + j] for j in range(LEAD - 2, LEAD + 3)]   # positions k-2 .. k+2
         columns, skipped = np.empty((len(lagged[0]), len(self.columns))), None
         for j, column in enumerate(self.columns):
             force, skip = column.force(lagged, self.sample_period)

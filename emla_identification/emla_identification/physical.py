@@ -1,128 +1,246 @@
-"""Physical EMLA parameters (R, L, Km, m, B, Fl) and their covariance from the regressions' statistics.
+"""Physical EMLA parameters (R, L, Km, m, B, Fl and the online effects' p) and their covariance from the
+regressions' statistics, by minimum distance.
 
-Each regression's state (theta and P, the inverse of its normal equations' matrix) holds those equations
-completely, so the coefficient that depends on h = R Ts / L (see regressors.py) is tied afterwards: the
-equations are solved for the reduced coefficients with that tie, for h from the electrical estimate, a few
-times until h settles. Stream and batch therefore give the same parameters from the same samples. The
-coefficients' covariance comes from the sensor-noise model (noise.py); the delta method carries it to the
-physical parameters, the regressions taken as independent. Effects estimated online (online_effects.py) add
-coefficients p / m after the mechanical regression's own; their parameters p follow as the load force does.
+Each regression of regressors.py estimates its coefficients theta freely; the exact sampled-data relations
+make them functions g(q) of the physical parameters q (coefficients()). q is the weighted least-squares fit of
+g(q) to theta, the weight being the inverse covariance of theta that the sensor-noise model gives (noise.py),
+the regressions taken as independent; its covariance is (J' W J)^-1, J = dg/dq at the fit. With the optimal
+weight this is as efficient as fitting q to the rows directly, and it works from the regressions' running
+statistics alone, so stream and batch give the same parameters from the same samples. Effects estimated online
+(online_effects.py) add a column with coefficient (gain of a unit load force) x p to each regression.
+
+The fit starts from the coefficients' meaning for a short sample period (initial_guess) or from a given start
+(the online identifier's last estimate) and converges in a few Gauss-Newton steps (scipy's Levenberg-Marquardt).
 """
 import math
 
 import numpy as np
+from scipy.linalg import block_diag
+from scipy.optimize import least_squares
 
 from emla_core.parameters import PARAMETER_NAMES
 
 from .noise import coefficient_covariances, noise_variances
-from .regressors import emf_lag, tie
+from .regressors import FIRST_ORDER
 
 MODEL_PARAMETERS = {
     'electrical': ('resistance', 'inductance', 'emf_constant'),
     'mechanical': ('mass', 'damping', 'load_force'),
     'full': PARAMETER_NAMES,
 }
-_TIE_ITERATIONS = 6     # h settles to rounding level in 3-5 (the tie depends on h only through eta ~ h/12)
+COIL_PARAMETERS = 5     # R, L, Km, m, B: the parameters the coil regressions depend on nonlinearly
+DECAYS = (0.1, 0.5, 2.0, 8.0, 32.0)   # R Ts / L of the fit's further starts (starts_for)
+MASS_FACTORS = (0.1, 1.0, 10.0)      # and their masses, over the guess's
+RESOLUTION = 1e-7                    # relative floor of a row's residual (_white_covariance)
 
 
-def log_decay(alpha):
-    """h = -ln(alpha), NaN unless 0 < alpha < 1 (elementwise)."""
-    if isinstance(alpha, float):  # a scalar (the tie's iteration): math, not numpy
-        return -math.log(alpha) if 0.0 < alpha < 1.0 else math.nan
-    return np.where((alpha > 0.0) & (alpha < 1.0), -np.log(np.where(alpha > 0.0, alpha, 1.0)), np.nan)
+def transition(q, sample_period):
+    """(P, G, H) of the coil and mass over one sample period for parameter rows q[..., :5] = R, L, Km, m, B:
+    s_k+1 = P s_k + G u_k + H F for the state s = [I, x, v], the held voltage u and a held load force F (opposing
+    +x). Leading axes of q are kept."""
+    r, ind, km, m, b = np.moveaxis(np.asarray(q, dtype=float)[..., :COIL_PARAMETERS], -1, 0)
+    a = np.zeros(np.shape(r) + (5, 5))
+    a[..., 0, 0], a[..., 0, 2], a[..., 0, 3] = -r / ind, -km / ind, 1.0 / ind
+    a[..., 1, 2] = 1.0
+    a[..., 2, 0], a[..., 2, 2], a[..., 2, 4] = km / m, -b / m, -1.0 / m
+    e = exponential(a * sample_period)
+    return e[..., :3, :3], e[..., :3, 3], e[..., :3, 4]
 
 
-def coil_parameters(vector, sample_period):
-    """R, L, Km, m, B, Fl (and the effects' p) from [alpha, beta, gamma, Km/m, B/m, Fl/m (, p/m ...)] along the
-    last axis of `vector`."""
-    alpha, beta, gamma, km_over_m, b_over_m, fl_over_m = np.moveaxis(vector[..., :6], -1, 0)
-    h = log_decay(alpha)
-    resistance = (1.0 - alpha) / beta
-    km = gamma / beta
-    # the intra-sample back-EMF rise acts as the extra mass Km^2 eta Ts / R (regressors.py)
-    mass = km / km_over_m + km * km * emf_lag(h) * sample_period / resistance
-    nominal = np.stack([resistance, resistance * sample_period / h, km, mass, km * b_over_m / km_over_m,
-                        km * fl_over_m / km_over_m], axis=-1)
-    return np.concatenate((nominal, (km / km_over_m)[..., None] * vector[..., 6:]), axis=-1)
+def exponential(a, terms=18):
+    """expm of a stack of small matrices (..., n, n): scaled to norm 1/2, a Taylor series of `terms` terms (its
+    remainder below 1e-22), squared back. scipy.linalg.expm per call costs some 100 times more for 5 x 5."""
+    norm = np.max(np.sum(np.abs(a), axis=-1), axis=-1, initial=0.0)   # the infinity norm of each matrix
+    squarings = np.maximum(0, np.ceil(np.log2(np.maximum(norm, 1e-300) / 0.5))).astype(int)
+    top = int(squarings.max(initial=0))
+    scaled = a / (2.0 ** squarings)[..., None, None]
+    identity = np.broadcast_to(np.eye(a.shape[-1]), a.shape)
+    e = identity.copy()
+    for k in range(terms, 0, -1):   # Horner: I + a/1 (I + a/2 (I + ...))
+        e = identity + scaled @ e / k
+    for step in range(top):   # each matrix squared as often as it was halved
+        more = (squarings > step)[..., None, None]
+        e = np.where(more, e @ e, e)
+    return e
 
 
-def force_parameters(vector, sample_period):
-    """m, B, Fl (and the effects' p) from [1/m, B/m, Fl/m (, p/m ...)] along the last axis."""
-    inverse_mass, b_over_m, fl_over_m = np.moveaxis(vector[..., :3], -1, 0)
-    nominal = np.stack([1.0 / inverse_mass, b_over_m / inverse_mass, fl_over_m / inverse_mass], axis=-1)
-    return np.concatenate((nominal, vector[..., 3:] / inverse_mass[..., None]), axis=-1)
+def coefficients(kind, q, sample_period, motion=None):
+    """The coefficients g(q) of regression `kind` (regressors.py) for parameter rows q: [R, L, Km, m, B, Fl, p...]
+    ([m, B, Fl, p...] for the force regression: [1, B, Fl, p...] / m), along the last axis; motion: transition(q)
+    if it is at hand."""
+    q = np.asarray(q, dtype=float)
+    if kind == 'force':   # columns [f_tri, -v_tri, -1, f_effect...]: accelerations
+        return q[..., :1] ** -1 * np.concatenate((np.ones_like(q[..., :1]), q[..., 1:]), axis=-1)
+    P, G, H = transition(q, sample_period) if motion is None else motion
+    # the load-force coefficients: Fl (column 1) and the effects' p (columns -f, online_effects.py)
+    loads = np.concatenate((q[..., COIL_PARAMETERS:COIL_PARAMETERS + 1], -q[..., COIL_PARAMETERS + 1:]), axis=-1)
+    if kind in ('electrical_velocity', 'mechanical_velocity'):
+        row = 0 if kind == 'electrical_velocity' else 2
+        nominal = np.stack((P[..., row, 0], P[..., row, 2], G[..., row]), -1)
+        return np.concatenate((nominal, H[..., row, None] * loads), axis=-1)
+    ratio, ts = P[..., 0, 2] / P[..., 1, 2], sample_period
+    if kind == 'electrical':   # the displacement's column is over Ts (regressors.rows)
+        nominal = np.stack((P[..., 0, 0] - ratio * P[..., 1, 0], G[..., 0] - ratio * G[..., 1], ratio * ts), -1)
+        return np.concatenate((nominal, (H[..., 0] - ratio * H[..., 1])[..., None] * loads), axis=-1)
+    a, pxv = P[..., 2, 2], P[..., 1, 2]
+    scale = 2.0 / ((1.0 + a) * ts * ts)   # the second difference is over Ts^2, the central one over 2 Ts
+    nominal = np.stack((-2.0 * (1.0 - a) / ((1.0 + a) * ts), scale * P[..., 1, 0],
+                        scale * (pxv * P[..., 2, 0] - a * P[..., 1, 0]), scale * G[..., 1],
+                        scale * (pxv * G[..., 2] - a * G[..., 1])), -1)
+    load = scale * ((1.0 - a) * H[..., 1] + pxv * H[..., 2])
+    return np.concatenate((nominal, load[..., None] * loads), axis=-1)
 
 
-def propagate(function, vector, covariance, sample_period):
-    """function(vector) and its covariance J C J' (central differences at a fraction of each sigma)."""
-    sigma = np.sqrt(np.abs(np.diag(covariance)))
-    steps = np.where(np.isfinite(sigma) & (sigma > 0), 1e-4 * sigma, 1e-8 * (np.abs(vector) + 1e-12))
-    shifts = np.diag(steps)
-    points = function(np.concatenate((vector[None], vector + shifts, vector - shifts)), sample_period)
-    n = len(vector)
-    jacobian = ((points[1:n + 1] - points[n + 1:]) / (2.0 * steps[:, None])).T
-    return points[0], jacobian @ covariance @ jacobian.T
-
-
-def physical(model, statistics, sample_period):
-    """(names, values, covariance) of `model`'s parameters (and the online effects') from {kind: Statistics}."""
+def initial_guess(statistics, sample_period):
+    """Parameters q from the coefficients read as they are for a short sample period (a start for the fit)."""
+    ts = sample_period
     with np.errstate(all='ignore'):
-        restricted = _restricted(statistics)
-        variances = noise_variances(statistics, restricted, sample_period)
-        covariances = coefficient_covariances(statistics, restricted, variances, sample_period)
-        vector = np.concatenate([theta for _, theta in restricted.values()])
-        covariance = np.zeros((len(vector), len(vector)))
-        start = 0
-        for part in covariances.values():  # the regressions' coefficients taken as independent
-            covariance[start:start + len(part), start:start + len(part)] = part
-            start += len(part)
-        names, function = _parameter_function(statistics)
-        values, covariance = propagate(function, vector, covariance, sample_period)
-    reported = _reported(model, statistics)
-    keep = [names.index(n) for n in reported]
-    return reported, values[keep], covariance[np.ix_(keep, keep)]
+        if 'force' in statistics:
+            t = statistics['force'].theta
+            return np.concatenate(([1.0], t[1:])) / t[0]
+        velocity = 'electrical_velocity' in statistics
+        e = statistics['electrical_velocity' if velocity else 'electrical'].theta
+        mech = statistics['mechanical_velocity' if velocity else 'mechanical'].theta
+        decay, gain = e[0], e[2 if velocity else 1]
+        r = (1.0 - decay) / gain
+        h = -math.log(decay) if 0.0 < decay < 1.0 else 5.0   # a decay beyond resolution: L somewhere below
+        km = -e[1] / gain if velocity else -e[2] / gain
+        if velocity:   # [P_vI, P_vv, G_v, loads]: P_vI ~ Km Ts / m, P_vv ~ exp(-B Ts / m)
+            m = km * ts / mech[0]
+            b = -m * math.log(mech[1]) / ts if mech[1] > 0.0 else m / ts
+            loads = np.concatenate((-mech[3:4], mech[4:])) * m / ts
+        else:   # restricted to the first-order form [-B/m, Km/(2m), Km/(2m), 0, 0, -Fl/m, p/m...]: the free
+            # coefficients are poorly conditioned at high sample rates (nearly equal currents, weak instruments)
+            extra = len(mech) - 6
+            restricted = statistics['mechanical'].restrict(block_diag(FIRST_ORDER['mechanical'][0], np.eye(extra)))
+            m = km / restricted[1]
+            b = -m * restricted[0]
+            loads = np.concatenate((-restricted[2:3], restricted[3:])) * m
+        return np.concatenate(([r, r * ts / h, km, m, b], loads))
 
 
-def physical_values(model, statistics, sample_period):
-    """(names, values) as physical() gives them, without the noise model and the uncertainties."""
+def parameter_names(statistics):
+    """The parameters q of these regressions, in the order of coefficients()."""
+    nominal = MODEL_PARAMETERS['mechanical'] if 'force' in statistics else PARAMETER_NAMES
+    return nominal + _effect_names(statistics)
+
+
+def physical(model, statistics, sample_period, start=None):
+    """(names, values, covariance) of `model`'s parameters (and the online effects') from {kind: Statistics},
+    their covariance from the sensor-noise model (noise.py); start: parameters q to start the fit from."""
+    return reported(model, statistics, *fit(statistics, sample_period, start=start))
+
+
+def fit(statistics, sample_period, noise=True, start=None):
+    """(q, covariance) of all parameters (parameter_names order): weighted by the sensor-noise model's covariance
+    of the coefficients, or (noise=False, for per-frame use) as if the rows' errors were white, which gives the
+    same parameters when the model fits and costs far less."""
     with np.errstate(all='ignore'):
-        vector = np.concatenate([theta for _, theta in _restricted(statistics).values()])
-        names, function = _parameter_function(statistics)
-        values = function(vector[None], sample_period)[0]
-    reported = _reported(model, statistics)
-    return reported, values[[names.index(n) for n in reported]]
+        white = {kind: _white_covariance(s) for kind, s in statistics.items()}
+        q, covariance = _minimum_distance(statistics, white, sample_period, start)
+        if not noise or not np.all(np.isfinite(q)):
+            return q, covariance
+        # the noise model about the model's own coefficients (the free ones scatter widely at high rates)
+        fitted = {kind: (np.eye(len(s.theta)), coefficients(kind, q, sample_period)) for kind, s in statistics.items()}
+        variances = noise_variances(statistics, fitted, sample_period)
+        if not any(v > 0 for v in variances.values()):   # noise-free: the white weights are all there is
+            return q, covariance
+        covariances = coefficient_covariances(statistics, fitted, variances, sample_period)
+        return _minimum_distance(statistics, covariances, sample_period, q)
+
+
+def _white_covariance(stats):
+    """The coefficients' covariance for white row errors: s^2 A^-1 S A^-T, A the normal equations' matrix, S the
+    instruments' (or regressors') squared-weight moment, s^2 the residuals' mean square."""
+    inverse = stats.covariance
+    products = stats.residual_products(np.eye(len(stats.theta)), stats.theta)
+    weight = stats.weight if stats.weight > 0 else 1.0
+    # at least (RESOLUTION x the output's RMS)^2: noise-free records would leave rounding, whose covariance spans
+    # more decades than a weight can (the fit would lose the well-determined directions)
+    spread = max(products[0], RESOLUTION ** 2 * stats.lags[0, -1, -1]) / weight
+    return spread * inverse @ stats.instrument_lags[0] @ inverse.T
+
+
+def _minimum_distance(statistics, covariances, sample_period, start):
+    """(q, covariance of q): g(q) fitted to the regressions' coefficients with weights from `covariances`, from
+    `start`, or (None) from each of starts() keeping the best fit."""
+    kinds = list(statistics)
+    theta = np.concatenate([statistics[k].theta for k in kinds])
+    whiten = _block_whitening([covariances[k] for k in kinds])
+    starts = starts_for(statistics, sample_period) if start is None else [np.asarray(start, dtype=float)]
+    starts = [q for q in starts if np.all(np.isfinite(q))]
+    n = len(parameter_names(statistics))
+    if not (starts and np.all(np.isfinite(theta)) and np.all(np.isfinite(whiten))):
+        return np.full(n, np.nan), np.full((n, n), np.nan)
+    scale = np.where(np.arange(n) < (0 if 'force' in statistics else COIL_PARAMETERS), np.abs(starts[0]), 1.0)
+    scale[scale == 0.0] = 1.0
+
+    def g(z):   # the coefficients of all regressions for scaled parameters z (rows of z)
+        q = z * scale
+        motion = None if 'force' in statistics else transition(q, sample_period)
+        return np.concatenate([coefficients(k, q, sample_period, motion) for k in kinds], axis=-1)
+
+    def residual(z):
+        return whiten @ (g(z) - theta)
+
+    def jacobian(z):
+        steps = np.where(np.arange(n) < COIL_PARAMETERS, 1e-6 * np.maximum(np.abs(z), 1e-3), 1.0)
+        shifted = g(np.concatenate((z + np.diag(steps), z - np.diag(steps))))
+        return whiten @ ((shifted[:n] - shifted[n:]) / (2.0 * steps[:, None])).T
+
+    best = None
+    for q0 in starts:
+        try:
+            fit = least_squares(residual, q0 / scale, jac=jacobian, method='lm', xtol=1e-12, ftol=1e-12)
+        except ValueError:   # a start where the model is not finite
+            continue
+        if np.isfinite(fit.cost) and (best is None or fit.cost < best.cost):
+            best = fit
+    try:
+        j = jacobian(best.x)
+        covariance = np.linalg.inv(j.T @ j)
+    except (AttributeError, ValueError, np.linalg.LinAlgError):   # (no start converged: best is None)
+        return np.full(n, np.nan), np.full((n, n), np.nan)
+    return best.x * scale, covariance * np.outer(scale, scale)
+
+
+def starts_for(statistics, sample_period):
+    """Where the fit starts without an estimate to start from: initial_guess, and with coil signals the same with
+    the coil's L/R at a few multiples of the sample period and the mass at a few multiples of its guess's size
+    (at sample periods of several L/R the guess is poor, and the fit has local minima); the best fit wins."""
+    q0 = initial_guess(statistics, sample_period)
+    if 'force' in statistics:
+        return [q0]
+    r, mass = abs(q0[0]), abs(q0[3])
+    return [q0] + [np.concatenate(([r, r * sample_period / h], q0[2:3], [mass * f], q0[4:]))
+                   for h in DECAYS for f in MASS_FACTORS]
+
+
+def _block_whitening(blocks):
+    """W with W' W the inverse of the block-diagonal covariance (eigenvalues floored relative to each block's
+    largest, after scaling to unit diagonal)."""
+    size = sum(len(b) for b in blocks)
+    whiten, at = np.zeros((size, size)), 0
+    for c in blocks:
+        n = len(c)
+        d = np.sqrt(np.abs(np.diag(c)))
+        d[~(d > 0)] = 1.0
+        w, v = np.linalg.eigh((c + c.T) / 2.0 / np.outer(d, d))
+        w = np.maximum(w, 1e-14 * max(w.max(), 1e-300))
+        whiten[at:at + n, at:at + n] = (v / np.sqrt(w)).T / d
+        at += n
+    return whiten
 
 
 def _effect_names(statistics):
-    """The parameters of the online effects' columns of the mechanical (or force) regression."""
-    kind = 'force' if 'force' in statistics else 'mechanical'
-    return tuple(e.parameter for e in statistics[kind].effects) if kind in statistics else ()
+    """The parameters of the online effects' columns (every regression has the same ones)."""
+    first = next(iter(statistics.values()))
+    return tuple(e.parameter for e in first.effects)
 
 
-def _reported(model, statistics):
-    return MODEL_PARAMETERS[model] + _effect_names(statistics)
-
-
-def _parameter_function(statistics):
-    """(parameter names, function of the restricted coefficients) for these regressions."""
-    if 'force' in statistics:
-        return MODEL_PARAMETERS['mechanical'] + _effect_names(statistics), force_parameters
-    return PARAMETER_NAMES + _effect_names(statistics), coil_parameters
-
-
-def _restricted(statistics):
-    """{kind: (T, theta_r)}: each regression with its h-dependent coefficient tied, h from the electrical one."""
-    if 'force' in statistics:
-        T = tie('force', 0.0, len(statistics['force'].effects))
-        return {'force': (T, statistics['force'].restrict(T))}
-    electrical = statistics['electrical']
-    h = log_decay(electrical.theta[0])
-    for _ in range(_TIE_ITERATIONS):
-        T = tie('electrical', h)
-        restricted = {'electrical': (T, electrical.restrict(T))}
-        h, previous = log_decay(restricted['electrical'][1][0]), h
-        if abs(h - previous) <= 1e-13 * h:
-            break
-    T = tie('mechanical', h, len(statistics['mechanical'].effects))
-    restricted['mechanical'] = T, statistics['mechanical'].restrict(T)
-    return restricted
+def reported(model, statistics, values, covariance):
+    """(names, values, covariance) of `model`'s parameters (and the online effects') from those of all q."""
+    names = parameter_names(statistics)
+    reported = MODEL_PARAMETERS[model] + _effect_names(statistics)
+    keep = [names.index(n) for n in reported]
+    return reported, values[keep], covariance[np.ix_(keep, keep)]

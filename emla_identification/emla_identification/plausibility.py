@@ -47,7 +47,7 @@ PEAK_PERCENTILE = 99.9      # of |signal|, taken as its peak: one glitch does no
 BALANCE_TOLERANCE = 1.5     # a model's balances on data agree with one misread signal to within this factor
 BALANCE_FACTOR = 2.0        # and name it when it is misread by more than this factor (or flipped)
 
-SI_UNITS = {'t': 's', 'voltage': 'V', 'current': 'A', 'position': 'm', 'force': 'N'}
+SI_UNITS = {'t': 's', 'voltage': 'V', 'current': 'A', 'position': 'm', 'velocity': 'm/s', 'force': 'N'}
 PREFIXES = {1e-3: 'm', 1e-6: 'u'}
 # (sign of R and L, of Km, of m) each negated signal gives; see the module doc
 SIGN_PATTERNS = {'current': (-1, 1, -1), 'position': (1, -1, 1), 'voltage': (-1, -1, -1)}

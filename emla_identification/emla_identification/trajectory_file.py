@@ -1,5 +1,5 @@
 """The estimates over time as a table and a CSV file (`emla identify --trajectory`): a GreyBoxResult's
-trajectory, one row per estimate, columns `time` (s) then each parameter `<name>` and its one-sigma
+trajectory, one row per estimate, columns `t` (s) then each parameter `<name>` and its one-sigma
 `<name>_std`, SI units. With forgetting the rows follow a drifting plant (a coil warming up); without, they
 show the estimates converging. A figure that cannot be computed (an uncertainty before enough excitation)
 is an empty cell, as it is null in the JSON."""
@@ -11,7 +11,7 @@ MAX_ROWS = 10_000   # rows `emla identify --trajectory` writes at most (each cos
 
 
 def trajectory_table(trajectory):
-    """The trajectory as a pyarrow Table: `time` (s), then `<name>`, `<name>_std` per parameter (SI).
+    """The trajectory as a pyarrow Table: `t` (s), then `<name>`, `<name>_std` per parameter (SI).
 
     Parameters
     ----------
@@ -24,7 +24,7 @@ def trajectory_table(trajectory):
         float64 columns; non-finite values are nulls.
     """
     import pyarrow as pa
-    columns = {'time': trajectory.time}
+    columns = {'t': trajectory.time}
     for name, values in trajectory.parameters.items():
         columns[name] = values
         columns[f'{name}_std'] = trajectory.std[name]
@@ -36,7 +36,7 @@ def trajectory_table(trajectory):
 
 
 def write_trajectory(trajectory, path: Path | str) -> None:
-    """Write the trajectory as CSV: a header `time,<name>,<name>_std,...` and one row per estimate, each number
+    """Write the trajectory as CSV: a header `t,<name>,<name>_std,...` and one row per estimate, each number
     in the shortest form that reads back to the same float; an empty cell where it is not finite.
 
     Parameters

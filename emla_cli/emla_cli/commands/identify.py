@@ -94,15 +94,17 @@ def run(args):
             recording = load_data(args)
             result, plot = _arx(recording, orders, _memory(args, forgetting, recording), args)
             identified = trajectory = None
+            fit = []
         elif structure is not None and structure.effects:
             recording = load_data(args)
             result, plot, identified = _with_effects(structure, recording, args)
-            trajectory = None
+            trajectory, fit = None, []
         else:
             recording, parts = read_record(args.data, lambda path: load_data(args), plain=not foreign(args))
-            result, plot, identified, trajectory = _greybox(recording, parts, model,
-                                                            _memory(args, forgetting, recording), args)
+            result, plot, identified, trajectory, fit = _greybox(recording, parts, model,
+                                                                 _memory(args, forgetting, recording), args)
     found = [] if model == 'arx' else plausibility_warnings(result['parameters'], result['std'], recording)
+    found += [] if found else fit   # a slip the plausibility checks name is the root cause of any misfit
     found += unknown_figures(result)
     if model != 'arx' or found or lost:   # (an ARX result has warnings only when there are some)
         result['warnings'] = lost + warn(found, 'identify')
@@ -181,7 +183,7 @@ def _greybox(recording, parts, model, forgetting, args):
 
     from emla_identification.greybox import identify
     from emla_identification.streaming import identify_chunks
-    points = _points(args, recording, parts)
+    points = _points(args, recording, parts) if args.plot or args.trajectory else 1   # else the final one only
     if parts is None:
         with tqdm(total=100, unit='%', desc='identify', file=sys.stderr, leave=False,
                   disable=not sys.stderr.isatty() or len(recording) < PROGRESS_MIN_SAMPLES) as bar:
@@ -190,7 +192,7 @@ def _greybox(recording, parts, model, forgetting, args):
     else:
         with tqdm(unit=' samples', unit_scale=True, desc='identify', file=sys.stderr, leave=False,
                   disable=not sys.stderr.isatty()) as bar:
-            result = identify_chunks(parts, model, forgetting, points=points if args.plot or args.trajectory else 1,
+            result = identify_chunks(parts, model, forgetting, points=points,
                                      progress=lambda samples: bar.update(samples - bar.n))
     truth = recording.truth(result.parameters)
     trajectory = result.trajectory
@@ -200,7 +202,7 @@ def _greybox(recording, parts, model, forgetting, args):
         from emla_identification.model import from_greybox
         identified = from_greybox(result, args.data, _command_line())
     plot = (trajectory.time, trajectory.parameters, trajectory.std, truth, title)
-    return result.to_dict(), plot, identified, trajectory
+    return result.to_dict(), plot, identified, trajectory, result.warnings()
 
 
 def _points(args, recording, parts):

@@ -12,7 +12,9 @@ import numpy as np
 
 from emla_core.errors import InputError
 from emla_identification.checks import missing_signals
-from emla_identification.regressors import HISTORY, default_model, regressions_for
+from emla_identification.regressors import default_model, regressions_for
+
+from .first_order import HISTORY
 
 MAX_DELAY = 8          # samples a sensor delay may have; the last MAX_DELAY samples are kept for re-alignment
 MIN_SAMPLES = 400      # below this neither the statistics nor the k-step predictions mean much
@@ -26,7 +28,7 @@ class Data:
     start_time: float
     signals: dict          # name -> array over the window: voltage, current, position | force, position
     spare: dict            # name -> the MAX_DELAY samples that follow the window
-    kinds: tuple           # regressions of regressors.py: ('electrical', 'mechanical') or ('force',)
+    kinds: tuple           # regressions of first_order.py: ('electrical', 'mechanical') or ('force',)
     source: str = ''
     max_delay: ClassVar[int] = MAX_DELAY
 
@@ -37,6 +39,9 @@ class Data:
         if model is None:
             raise missing_signals(recording)
         kinds = regressions_for(model, recording.signals)
+        if 'position' not in recording.signals:
+            raise InputError(f'{source}: the discrepancy analysis needs the position (this record has the velocity '
+                             f'only; `emla identify` takes it)')
         names = ('force', 'position') if kinds == ('force',) else ('voltage', 'current', 'position')
         n = len(recording) - MAX_DELAY
         if n < MIN_SAMPLES:
@@ -120,5 +125,5 @@ class State:
 
 
 def regression_rows(data):
-    """Sample index of each regression row of regressors.rows (rows need samples k-2 .. k+2)."""
+    """Sample index of each regression row of first_order.rows (rows need samples k-2 .. k+2)."""
     return np.arange(HISTORY // 2, len(data) - HISTORY // 2)

@@ -68,10 +68,11 @@ def _binned_r2(e, which, bins, basis):
     return float(min(max(r @ w / spread, 0.0), 1.0))
 
 
-def dependence(residual, data, index, regressors, sample_period):
+def dependence(residual, signals, regressors, sample_period):
     """({'signal': name, 'explained': fraction} ranked, [{'signals': [a, b], 'explained': fraction}]) of a
-    residual at regression rows `index`, judged beside the model's `regressors` (rows x terms): the single
-    signals, and the pairs that explain clearly more than any single one does (when none explains enough)."""
+    residual, judged beside the model's `regressors` (rows x terms): the single signals of {name: values at the
+    residual's rows} (signals_of), and the pairs that explain clearly more than any single one does (when none
+    explains enough)."""
     width = max(1, int(round(SMOOTHING / sample_period)))
     smooth = uniform_filter1d(residual, width, mode='nearest')
     covariates = np.column_stack((uniform_filter1d(regressors, width, axis=0, mode='nearest'),
@@ -79,7 +80,7 @@ def dependence(residual, data, index, regressors, sample_period):
     scale = np.linalg.norm(covariates, axis=0)
     basis = np.linalg.qr(covariates / np.where(scale > 0, scale, 1.0))[0]
     # the signals are smoothed alike, so a fast one (the current of a stroke) lines up with the smoothed residual
-    candidates = {name: uniform_filter1d(z, width, mode='nearest') for name, z in signals_of(data, index).items()}
+    candidates = {name: uniform_filter1d(z, width, mode='nearest') for name, z in signals.items()}
     singles = {name: explained(smooth, z, basis) for name, z in candidates.items()}
     best = max(singles.values(), default=0.0)
     pairs = []

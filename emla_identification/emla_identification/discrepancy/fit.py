@@ -1,4 +1,4 @@
-"""The nominal regressions of regressors.py, augmented by candidate terms, solved jointly and judged on
+"""The nominal regressions of first_order.py, augmented by candidate terms, solved jointly and judged on
 held-out blocks.
 
 Rows of the electrical and the mechanical regression are stacked, each weighted by 1/sigma of its nominal
@@ -34,10 +34,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal import lfilter
 
-from emla_identification.physical import coil_parameters, force_parameters
-from emla_identification.regressors import instruments, rows, tie
-
 from .data import State, regression_rows
+from .first_order import coil_parameters, force_parameters, instruments, rows, tie
 
 FOLDS = 10
 PREFILTER = 0.9

@@ -51,7 +51,7 @@ from ..plausibility import plausibility_warnings
 from .adequacy import EQUATION, assess_adequacy
 from .candidates import library
 from .data import Data, regression_rows
-from .dependence import dependence
+from .dependence import dependence, signals_of
 from .fit import FOLDS, Fit, design, fit, physical, with_systematic
 from .predict import MECHANICAL_TIME, predict
 from .residuals import binned, cross_correlation, whiteness
@@ -186,7 +186,7 @@ class Diagnosis:
             a = adequacy[EQUATION[kind]]
             out[a.equation] = a.to_dict()
             if not a.adequate:   # what is left, and what it depends on
-                singles, pairs = dependence(a.residual, fit.data, index, np.hstack((phi, extra)),
+                singles, pairs = dependence(a.residual, signals_of(fit.data, index), np.hstack((phi, extra)),
                                             fit.data.sample_period)
                 out[a.equation].update(depends_on=singles[:5], jointly=pairs[:3])
         return out
