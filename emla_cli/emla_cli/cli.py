@@ -19,6 +19,7 @@ from emla_core.errors import InputError  # noqa: E402
 # so `emla --help` stays fast and a broken optional dependency cannot break the other commands.
 COMMANDS = {
     'identify': 'identify',
+    'trend': 'trend',
     'discrepancy': 'discrepancy',
     'compare': 'compare',
     'import': 'import_csv',
