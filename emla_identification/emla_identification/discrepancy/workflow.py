@@ -28,9 +28,11 @@ is significant, which it is when
      saturation lowers L; a stiffness may have either sign): a wrong sign means the term is patching
      some other misfit.
 Fitting noise cannot pass 1 and 2 together: a term that only fits noise predicts held-out blocks worse.
-A significant candidate is named only if, added, it removes at least MIN_SHARE of the disagreement left
-(the low-band residual power above the noise floor, in floor units, summed over the equations); otherwise
-it is a partial match and the verdict stays `unexplained`. Up to MAX_EFFECTS effects are named in turn;
+A significant candidate is named if it removes most (MOST) of the held-out one-step error, or if, added, it
+removes at least MIN_SHARE of the disagreement left (the low-band residual power above the noise floor, in floor
+units, summed over the equations; the share is bounded to [-1, 1], removed_share); otherwise it is a partial
+match and the verdict stays `unexplained`. A named effect whose form is close but not exact leaves a
+disagreement: the verdict is then `unexplained` with the effect named. Up to MAX_EFFECTS effects are named in turn;
 the final model is the nominal one with all of them, re-identified jointly.
 """
 import functools
@@ -60,6 +62,7 @@ MIN_BLOCKS = 9
 MIN_SCORE = 0.05
 MIN_T = 3.0
 MIN_SHARE = 0.7
+MOST = 0.5         # a significant candidate removing this share of the held-out one-step error is named
 MAX_EFFECTS = 4
 SMOOTHING = 1e-3   # s, of the residuals binned against the signals
 
@@ -95,7 +98,8 @@ class Assessment:
 
     @property
     def named(self):
-        return self.significant and self.share >= MIN_SHARE
+        """Significant, and it removes most of the held-out one-step error or MIN_SHARE of the disagreement."""
+        return self.significant and (self.score >= MOST or self.share >= MIN_SHARE)
 
     @property
     def evidence(self):
@@ -103,7 +107,7 @@ class Assessment:
         settings = ', '.join(f'{k} {v:.3g}' for k, v in self.settings.items() if isinstance(v, (int, float)))
         equations = ', '.join(f'{EQUATION[k]} {100 * v:.1f} %' for k, v in self.per_equation.items())
         partial = (f'; a partial match: removes only {100 * self.share:.0f} % of the disagreement'
-                   if self.significant and not self.named else '')
+                   if self.significant and not self.named and np.isfinite(self.share) else '')
         return (f'{params or "no parameters"}{f" ({settings})" if settings else ""}; removes {equations} of the '
                 f'held-out one-step error; better in {self.blocks_improved}/{FOLDS} held-out blocks'
                 f'{"" if self.plausible else "; parameter of the wrong sign"}{partial}')
@@ -291,7 +295,7 @@ def diagnose(data: Recording | Path | str | None = None, names: Sequence[str] | 
             if best is None:
                 break
             after = assess_adequacy(best.fit)
-            best.share = 1.0 - _disagreement(after) / _disagreement(adequacy)
+            best.share = removed_share(_disagreement(adequacy), _disagreement(after))
             if not best.named:
                 diagnosis.partial = best
                 break
@@ -305,6 +309,13 @@ def diagnose(data: Recording | Path | str | None = None, names: Sequence[str] | 
 def _physical_only(parameters):
     """The fit's physical parameters, without its sample period."""
     return {k: v for k, v in parameters.items() if k != 'sample_period'}
+
+
+def removed_share(before, after):
+    """The share of the disagreement `before` that a candidate removes, leaving `after`: 1 when it removes all,
+    0 when none, down to -1 when it doubles it or worse (bounded both ways, whatever the sizes)."""
+    largest = max(before, after)
+    return (before - after) / largest if largest > 0 else 0.0
 
 
 def _disagreement(adequacy):

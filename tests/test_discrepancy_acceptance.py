@@ -1,0 +1,44 @@
+"""The discrepancy workflow's acceptance of a candidate (issue 22): a significant candidate that removes most of
+the held-out one-step error is named, the share of the disagreement it removes stays within [-100 %, 100 %],
+and no output holds NaN or an impossible percentage. Data: the independent RK4 plant (tests/independent_plant.py)
+with the issue's pairs of hidden effects."""
+import json
+import re
+
+import pytest
+from independent_plant import make_effect, record
+
+from emla_identification.discrepancy.workflow import diagnose, removed_share
+
+PERCENT = re.compile(r'(-?\d+(?:\.\d+)?) %')
+
+
+def test_the_share_removed_is_bounded():
+    assert removed_share(10.0, 0.0) == 1.0 and removed_share(10.0, 10.0) == 0.0
+    assert removed_share(10.0, 2.5) == pytest.approx(0.75)
+    assert removed_share(1.0, 140.0) == pytest.approx(-139.0 / 140.0)   # was 1 - 140 = -13900 %
+    assert removed_share(0.0, 0.0) == 0.0
+
+
+def assert_sensible(diagnosis):
+    """No NaN or infinity in the JSON, no percentage below -100 % or above 100 % in any evidence line."""
+    text = json.dumps(diagnosis.to_dict())
+    assert 'nan' not in text.lower() and 'infinity' not in text.lower()
+    for candidate in diagnosis.to_dict()['candidates']:
+        for value in PERCENT.findall(candidate['evidence']):
+            assert -100.0 <= float(value) <= 100.0, candidate['evidence']
+
+
+@pytest.mark.parametrize('effects, delays, named, verdict', [
+    (['resistance_drift'], {'current': 3, 'position': 3}, {'sensor_delay', 'resistance_drift'}, 'explained'),
+    ([make_effect('inductance_saturation'), make_effect('coulomb_friction', force=1.0)], None,
+     {'coulomb_friction', 'inductance_saturation'}, None),
+], ids=['drift+delay', 'saturation+friction'])
+def test_pairs_of_effects_are_both_named(effects, delays, named, verdict):
+    recording, _ = record(duration=2.0, seed=4, effects=effects, delays=delays)
+    diagnosis = diagnose(recording)
+    result = diagnosis.to_dict()
+    assert {e['effect'] for e in result['effects']} == named
+    if verdict:
+        assert result['verdict'] == verdict
+    assert_sensible(diagnosis)
