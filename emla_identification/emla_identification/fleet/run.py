@@ -23,7 +23,7 @@ from .changes import detect_changes
 from .recordings import DATA_FLAGS, GREYBOX_MODELS, find_recordings, identify_recording
 from .table import recordings_table
 
-CONNECT_TIMEOUT = 30.0   # s to reach a scheduler
+CONNECT_TIMEOUT = 10.0   # s to reach a scheduler
 WORKERS_TIMEOUT = 60.0   # s for a scheduler's first worker to be there
 SCHEDULER_SCHEMES = ('tcp://', 'tls://')
 JSON_KEYS = ('path', 'start', 'duration', 'parameters', 'std', 'fit', 'warnings')
