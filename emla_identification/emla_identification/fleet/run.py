@@ -196,6 +196,7 @@ def _cluster(workers, scheduler, client):
     if scheduler is not None:
         if not scheduler.startswith(SCHEDULER_SCHEMES) or ':' not in scheduler.split('://', 1)[1]:
             raise InputError(f'--scheduler {scheduler}: give the address as tcp://HOST:PORT')
+        _reachable(scheduler)
         try:
             remote = Client(scheduler, timeout=CONNECT_TIMEOUT, set_as_default=False)
         except (OSError, TimeoutError) as exc:
@@ -214,6 +215,21 @@ def _cluster(workers, scheduler, client):
                       dashboard_address=None, silence_logs=logging.ERROR) as cluster, \
             Client(cluster, set_as_default=False) as local:
         yield local, 'local', count
+
+
+def _reachable(scheduler):
+    """InputError at once when nothing listens at a tcp:// scheduler's address (the client would retry until its
+    timeout)."""
+    if not scheduler.startswith('tcp://'):
+        return
+    import socket
+    host, _, port = scheduler[len('tcp://'):].rpartition(':')
+    try:
+        with socket.create_connection((host.strip('[]'), int(port)), timeout=CONNECT_TIMEOUT):
+            pass
+    except (OSError, ValueError) as exc:
+        raise InputError(f'--scheduler {scheduler}: cannot connect ({getattr(exc, "strerror", None) or exc}); is '
+                         f'`dask scheduler` running there?') from None
 
 
 def _address(client):
