@@ -64,9 +64,15 @@ class Candidate:
     acts_on: ClassVar[tuple] = ()      # regressions (emla_identification.regressors kinds) the terms enter
     signs: ClassVar[tuple] = ()        # per parameter: +1 / -1 when physics fixes its sign, 0 when it does not
 
+    scale: ClassVar[str | None] = None   # a setting searched on a grid, then refined continuously (at())
+
     def variants(self, data):
         """Configurations to search on these data (each a Candidate); default: this one."""
         return [self]
+
+    def at(self, data, value):
+        """The variant with its `scale` setting at `value` (a candidate with a continuous setting)."""
+        raise NotImplementedError(f'{self.name} has no continuous setting')
 
     def realigned(self, data):
         return data

@@ -43,6 +43,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy.ndimage import uniform_filter1d
+from scipy.optimize import minimize_scalar
 
 from emla_core.data import as_recording
 from emla_core.errors import InputError
@@ -63,6 +64,7 @@ MIN_SCORE = 0.05
 MIN_T = 3.0
 MIN_SHARE = 0.7
 MOST = 0.5         # a significant candidate removing this share of the held-out one-step error is named
+REFINE_TOLERANCE = 1e-3   # of a continuous setting's logarithm: its relative precision after the grid
 MAX_EFFECTS = 4
 SMOOTHING = 1e-3   # s, of the residuals binned against the signals
 
@@ -329,13 +331,16 @@ def rank(base, candidates):
 
 
 def assess(base, candidate):
-    """The candidate at its best variant (held-out error of a one-pass fit), refitted and judged."""
+    """The candidate at its best variant (held-out error of a one-pass fit; a continuous setting refined between
+    its grid's neighbours), refitted and judged."""
     def heldout_error(variant):
         trial = fit(variant.realigned(base.data), base.candidates + (variant,), base, relinearise=False)
         error = trial.heldout.sum()
         return error if np.isfinite(error) else np.inf
     variants = candidate.variants(base.data)
     best = min(variants, key=heldout_error) if len(variants) > 1 else variants[0]
+    if best.scale is not None and len(variants) > 1:
+        best = _refined(best, variants, heldout_error, base.data)
     result = fit(best.realigned(base.data), base.candidates + (best,), base)
     gain = np.nan_to_num((base.heldout - result.heldout) / base.heldout.sum(axis=0), nan=-np.inf)
     kinds = result.data.kinds
@@ -347,6 +352,21 @@ def assess(base, candidate):
     return Assessment(best.effect_name(values), result, float(gain.sum()),
                       dict(zip(kinds, map(float, gain.sum(axis=0)))), int(np.sum(gain.sum(axis=1) > 0)),
                       parameters, best.settings(), resolved, plausible)
+
+
+def _refined(best, variants, error, data):
+    """`best` with its continuous setting (Candidate.scale) at the held-out error's minimum between the grid
+    points either side of it (bounded Brent search in the logarithm, to REFINE_TOLERANCE), if lower there."""
+    grid = sorted({getattr(v, best.scale) for v in variants} - {np.inf})
+    value = getattr(best, best.scale)
+    if value not in grid or len(grid) < 2:
+        return best
+    j = grid.index(value)
+    low, high = grid[max(j - 1, 0)], grid[min(j + 1, len(grid) - 1)]
+    search = minimize_scalar(lambda z: error(best.at(data, np.exp(z))), bounds=(np.log(low), np.log(high)),
+                             method='bounded', options={'xatol': REFINE_TOLERANCE})
+    refined = best.at(data, float(np.exp(search.x)))
+    return refined if error(refined) < error(best) else best
 
 
 @dataclass

@@ -23,11 +23,15 @@ class _Candidate(Candidate):
     parameters, units = of_effect(PARAMETERS)
     acts_on: ClassVar[tuple] = ('electrical',)
     signs: ClassVar[tuple] = (1, 0)
+    scale: ClassVar[str] = 'current_scale'
     current_scale: float = 0.0   # A: I_eps
 
     def variants(self, data):
         peak = max(np.max(np.abs(data.signals['current'])), np.finfo(float).tiny)
-        return [dataclasses.replace(self, current_scale=float(scale)) for scale in peak * np.geomspace(1e-3, 0.3, 11)]
+        return [self.at(data, scale) for scale in peak * np.geomspace(1e-3, 0.3, 11)]
+
+    def at(self, data, value):
+        return dataclasses.replace(self, current_scale=float(value))
 
     def voltage(self, s):
         return np.stack((np.tanh(s.current / self.current_scale), np.ones_like(s.current)))

@@ -32,12 +32,15 @@ class _Candidate(Candidate):
     parameters, units = of_effect(PARAMETERS)
     acts_on: ClassVar[tuple] = ('electrical',)
     signs: ClassVar[tuple] = (-1,)
+    scale: ClassVar[str] = 'saturation_current'
     saturation_current: float = np.inf
 
     def variants(self, data):
         peak = np.max(np.abs(data.signals['current']))
-        return [self] + [dataclasses.replace(self, saturation_current=float(peak * f))
-                         for f in np.geomspace(0.4, 4.0, 15)]
+        return [self] + [self.at(data, peak * f) for f in np.geomspace(0.4, 4.0, 15)]
+
+    def at(self, data, value):
+        return dataclasses.replace(self, saturation_current=float(value))
 
     def inductance(self, s):
         return inductance_change(s.current, 1.0, self.saturation_current)[None]

@@ -44,17 +44,18 @@ class _Candidate(Candidate):
     thermal_time_constant: float = 0.0   # s
     heating: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
 
+    scale: ClassVar[str] = 'thermal_time_constant'
+
     def variants(self, data):
-        from scipy.signal import lfilter  # here: the nodes that load the physics need no scipy
         span = len(data) * data.sample_period
-        power = data.signals['current'] ** 2
-        variants = []
-        for tau in span * np.geomspace(0.01, 10.0, 13):
-            a = np.exp(-data.sample_period / tau)
-            heating = lfilter([1.0 - a], [1.0, -a], power)
-            variants.append(dataclasses.replace(self, thermal_time_constant=float(tau),
-                                                heating=heating / max(heating.max(), np.finfo(float).tiny)))
-        return variants
+        return [self.at(data, tau) for tau in span * np.geomspace(0.01, 10.0, 13)]
+
+    def at(self, data, value):
+        from scipy.signal import lfilter  # here: the nodes that load the physics need no scipy
+        a = np.exp(-data.sample_period / value)
+        heating = lfilter([1.0 - a], [1.0, -a], data.signals['current'] ** 2)
+        return dataclasses.replace(self, thermal_time_constant=float(value),
+                                   heating=heating / max(heating.max(), np.finfo(float).tiny))
 
     def voltage(self, s):
         return (self.heating[s.index] * s.current)[None]
