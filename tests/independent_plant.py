@@ -23,9 +23,10 @@ gives the same record every time.
     rec, truth = record(params=random_parameters(seed=5), effects=['coulomb_friction'])
 
 Effects (by name; `make_effect(name, **parameters)`, or the classes below):
-  in the library: coulomb_friction, return_spring, magnetic_stiffness, resistance_drift,
-                  inductance_saturation, force_constant_variation, position_inductance, sensor_delay,
-                  drive_voltage_error, current_sensor_offset
+  in the library: coulomb_friction, smooth_friction, stribeck_friction, return_spring, magnetic_stiffness,
+                  resistance_drift, inductance_saturation, force_constant_variation, position_inductance,
+                  sensor_delay (whole or fractional samples), sensor_filter, drive_voltage_error,
+                  current_sensor_offset
   not in it:      quadratic_drag, cogging, time_varying_load, force_saturation
 
 Print what each effect does to a record, and the generation time:
@@ -94,6 +95,36 @@ class CoulombFriction(Effect):
 
     name: ClassVar[str] = 'coulomb_friction'
     force: float = 1.0
+    presliding: float = 2e-6
+
+
+@_effect
+@dataclasses.dataclass(frozen=True)
+class SmoothFriction(Effect):
+    """Friction without sticking, smooth through zero speed: F_extra = Fc tanh(v / v_s) (a lubricated contact,
+    or a friction model as many simulators write it). force: Fc (N); speed: v_s (m/s)."""
+
+    name: ClassVar[str] = 'smooth_friction'
+    force: float = 0.8
+    speed: float = 2e-3
+
+
+@_effect
+@dataclasses.dataclass(frozen=True)
+class StribeckFriction(Effect):
+    """Dry friction whose level falls from the breakaway force Fs at rest to the Coulomb level Fc at speed:
+    g(v) = Fc + (Fs - Fc) exp(-(v / v_s)^2), with the stuck contact of CoulombFriction at that level:
+
+        F_extra = g(v) z / delta + sigma1 dz/dt,   dz/dt = v while |z| < delta or z v < 0, else 0,
+        sigma1 = 2 sqrt(m Fs / delta)
+
+    While sliding F_extra = g(v) sign(v); the part breaks away at Fs. coulomb: Fc (N); static: Fs (N);
+    speed: v_s (m/s); presliding: delta (m)."""
+
+    name: ClassVar[str] = 'stribeck_friction'
+    coulomb: float = 0.8
+    static: float = 1.4
+    speed: float = 0.01
     presliding: float = 2e-6
 
 
@@ -180,11 +211,26 @@ class ForceConstantVariation(Effect):
 class SensorDelay(Effect):
     """The sensed current is current(t_k - d_I Ts), the sensed position position(t_k - d_x Ts); the loop
     and the record both get the late samples (the voltage is not delayed). current, position: d_I, d_x
-    (samples, >= 0)."""
+    (samples, >= 0; fractional ones read between samples by cubic Hermite interpolation of the state and its
+    derivative, dI/dt under the voltage held over that interval and v)."""
 
     name: ClassVar[str] = 'sensor_delay'
-    current: int = 0
-    position: int = 2
+    current: float = 0
+    position: float = 2
+
+
+@_effect
+@dataclasses.dataclass(frozen=True)
+class SensorFilter(Effect):
+    """An analogue first-order low-pass (an anti-alias filter) in front of the sampler: the sensed current is
+    y_I + noise with tau_I dy_I/dt = I - y_I, tau_I = 1 / (2 pi f_I), and likewise the position (its filter
+    before the quantiser). Each filter is integrated exactly for the current or position linear over each
+    RK4 sub-step. The loop and the record both get the filtered signals. current_cutoff, position_cutoff:
+    f_I, f_x (Hz; 0: no filter)."""
+
+    name: ClassVar[str] = 'sensor_filter'
+    current_cutoff: float = 3000.0
+    position_cutoff: float = 0.0
 
 
 @_effect
@@ -333,6 +379,17 @@ def _simulate(p, fx, n, ts, substeps, stroke, period, dither, current_noise, res
     fc, delta = (e.force, e.presliding) if fric else (0.0, 1.0)
     fc_delta = fc / delta
     sigma1 = 2.0 * math.sqrt(m * fc_delta)
+    e = fx.get('stribeck_friction')
+    stribeck = e is not None
+    if stribeck and fric:
+        raise ValueError('coulomb_friction and stribeck_friction together are not modelled')
+    if stribeck:   # the bristle contact of coulomb_friction, its level g(v) falling from Fs to Fc
+        fric = True
+        fc, excess, inv_vs, delta = e.coulomb, e.static - e.coulomb, 1.0 / e.speed, e.presliding
+        sigma1 = 2.0 * math.sqrt(m * e.static / delta)
+    e = fx.get('smooth_friction')
+    smooth = e is not None
+    sf_force, sf_inv_speed = (e.force, 1.0 / e.speed) if smooth else (0.0, 0.0)
     # the stiffnesses and the other forces on position, velocity and time
     k_lin, x_lin = 0.0, 0.0   # F_extra += k_lin * x - x_lin: springs (return and magnetic) combined
     e = fx.get('return_spring')
@@ -354,9 +411,14 @@ def _simulate(p, fx, n, ts, substeps, stroke, period, dither, current_noise, res
     load = e is not None
     la, lw, lph = (e.amplitude, 2.0 * math.pi / e.period, e.phase) if load else (0.0, 0.0, 0.0)
     e = fx.get('sensor_delay')
-    d_i, d_x = (int(e.current), int(e.position)) if e is not None else (0, 0)
+    d_i, d_x = (float(e.current), float(e.position)) if e is not None else (0.0, 0.0)
     if d_i < 0 or d_x < 0:
         raise ValueError('sensor delays are >= 0 samples')
+    fractional = d_i != int(d_i) or d_x != int(d_x)   # read between samples: keep each interval's derivatives
+    d_i, d_x = (d_i, d_x) if fractional else (int(d_i), int(d_x))
+    e = fx.get('sensor_filter')
+    tau_i = 1.0 / (2.0 * math.pi * e.current_cutoff) if e is not None and e.current_cutoff > 0 else 0.0
+    tau_x = 1.0 / (2.0 * math.pi * e.position_cutoff) if e is not None and e.position_cutoff > 0 else 0.0
     e = fx.get('current_sensor_offset')
     i_offset = e.offset if e is not None else 0.0
     tanh, sin = math.tanh, math.sin
@@ -384,11 +446,14 @@ def _simulate(p, fx, n, ts, substeps, stroke, period, dither, current_noise, res
         force += reluctance - b * v - fl
         dz = 0.0
         if fric:
+            stiffness = (fc + excess * math.exp(-(v * inv_vs) ** 2)) / delta if stribeck else fc_delta
             if -delta < z < delta or z * v < 0.0:
                 dz = v
-                force -= fc_delta * z + sigma1 * v
+                force -= stiffness * z + sigma1 * v
             else:
-                force -= fc_delta * z
+                force -= stiffness * z
+        if smooth:
+            force -= sf_force * tanh(v * sf_inv_speed)
         if spring:
             force -= k_lin * x - x_lin
         if drag:
@@ -404,17 +469,26 @@ def _simulate(p, fx, n, ts, substeps, stroke, period, dither, current_noise, res
     kick = (dither * rng.standard_normal(n)).tolist()
     voltage, current, position, resistance = (np.empty(n) for _ in range(4))
     true_i, true_x = [0.0] * n, [0.0] * n
+    # per interval [t_k, t_k+1] (fractional delays): dI/dt at both ends under u_k, v at both ends
+    rate_i0, rate_i1, speed0, speed1 = ([0.0] * n for _ in range(4))
     i = x = v = temp = z = 0.0
+    y_i = y_x = 0.0   # the sensor filters' outputs
     h = ts / substeps
     half = 0.5 * h
     sixth = h / 6.0
     integral = previous = 0.0
     for k in range(n):
         t = k * ts
-        true_i[k], true_x[k] = i, x
+        true_i[k], true_x[k] = (y_i if tau_i else i), (y_x if tau_x else x)
         resistance[k] = r0 * (1.0 + alpha * temp)
-        sensed_i = (true_i[k - d_i] if k >= d_i else 0.0) + i_offset + noise[k]
-        sensed_x = resolution * math.floor((true_x[k - d_x] if k >= d_x else 0.0) / resolution + 0.5)
+        if fractional:
+            late_i = _hermite(true_i, rate_i0, rate_i1, k - d_i, ts)
+            late_x = _hermite(true_x, speed0, speed1, k - d_x, ts)
+        else:
+            late_i = true_i[k - d_i] if k >= d_i else 0.0
+            late_x = true_x[k - d_x] if k >= d_x else 0.0
+        sensed_i = late_i + i_offset + noise[k]
+        sensed_x = resolution * math.floor(late_x / resolution + 0.5)
         current[k], position[k] = sensed_i, sensed_x
         error = (stroke if t % period < 0.5 * period else 0.0) - sensed_x
         speed = (sensed_x - previous) / ts if k else 0.0
@@ -427,6 +501,9 @@ def _simulate(p, fx, n, ts, substeps, stroke, period, dither, current_noise, res
         for s in range(substeps):
             ts0 = t + s * h
             a1, b1, c1, d1, e1 = f(i, x, v, temp, z, ts0, u)
+            if fractional and s == 0:
+                rate_i0[k], speed0[k] = a1, b1
+            i_start, x_start = i, x
             a2, b2, c2, d2, e2 = f(i + half * a1, x + half * b1, v + half * c1, temp + half * d1,
                                    z + half * e1, ts0 + half, u)
             a3, b3, c3, d3, e3 = f(i + half * a2, x + half * b2, v + half * c2, temp + half * d2,
@@ -439,9 +516,37 @@ def _simulate(p, fx, n, ts, substeps, stroke, period, dither, current_noise, res
             if fric:
                 z += sixth * (e1 + 2.0 * (e2 + e3) + e4)
                 z = min(max(z, -delta), delta)
+            if tau_i:
+                y_i = _first_order(y_i, i_start, i, h, tau_i)
+            if tau_x:
+                y_x = _first_order(y_x, x_start, x, h, tau_x)
+        if fractional:
+            rate_i1[k], speed1[k] = f(i, x, v, temp, z, t + ts, u)[:2]
+            if tau_i or tau_x:
+                raise ValueError('a fractional sensor_delay together with sensor_filter is not modelled')
         if not (abs(i) < 1e3 and abs(x) < 1.0):
             raise RuntimeError(f'the loop went unstable at t = {t:.4f} s (I = {i:.3g} A, x = {x:.3g} m)')
     return voltage, current, position, resistance
+
+
+def _first_order(y, start, end, h, tau):
+    """y after h of tau dy/dt = w - y, w going linearly from `start` to `end` (exact)."""
+    slope = (end - start) / h
+    return end - tau * slope + (y - start + tau * slope) * math.exp(-h / tau)
+
+
+def _hermite(values, rate0, rate1, position, ts):
+    """The signal at fractional sample `position` (0 before the start): cubic Hermite on the interval
+    [floor, floor + 1] from the values at its ends and the derivatives there (per second)."""
+    if position <= 0.0:
+        return values[0] if position == 0.0 else 0.0
+    j = int(math.floor(position))
+    f = position - j
+    if f == 0.0:
+        return values[j]
+    y0, y1, m0, m1 = values[j], values[j + 1], rate0[j] * ts, rate1[j] * ts
+    f2, f3 = f * f, f * f * f
+    return (2 * f3 - 3 * f2 + 1) * y0 + (f3 - 2 * f2 + f) * m0 + (-2 * f3 + 3 * f2) * y1 + (f3 - f2) * m1
 
 
 def record(duration=3.0, params=None, effects=(), seed=0, current_noise=5e-3, resolution=1e-6, delays=None, *,
