@@ -16,7 +16,12 @@ import time
 from emla_core.errors import InputError
 
 from . import scenario_args
-from .output import BAG, check_outputs, replace_bag
+from .numbers import add_number
+from .output import BAG, check_outputs, publish, replace_bag, stage
+
+PAPER_RISE = 0.267     # the source paper's R from 0.45 to 0.57 ohm over 100 hours
+FLEET = 'fleet.yaml'   # what a fleet directory holds once complete (and --force replaces)
+MAX_RECORDINGS = 10000
 
 HELP = 'Simulate a scenario in-process and record it as a bag.'
 MAX_DURATION = 600.0   # s: 6 M samples at 10 kHz, held in memory with the truth and the estimates
@@ -35,8 +40,24 @@ parameter estimates with their full covariance every 10 ms. `emla play` can feed
 
 def add_arguments(parser):
     scenario_args.add_arguments(parser, MAX_DURATION)
-    parser.add_argument('--bag', required=True, metavar='DIR', help='bag directory to write (new or empty)')
-    parser.add_argument('--force', action='store_true', help='replace DIR if it holds a bag already')
+    out = parser.add_mutually_exclusive_group(required=True)
+    out.add_argument('--bag', metavar='DIR', help='bag directory to write (new or empty)')
+    out.add_argument('--fleet', metavar='DIR',
+                     help='a long run instead: one bag per recording (DIR/run_0000, ...; each stamped from its hour) '
+                          'and DIR/fleet.yaml with each one\'s start and true parameters')
+    long = parser.add_argument_group('a long run (--fleet)')
+    add_number(long, '--hours', low=1e-3, high=1e6, unit='h', metavar='H', default=100.0,
+               help='length of the run, hours (default 100)')
+    add_number(long, '--every', low=1e-3, high=1e6, unit='h', metavar='H', default=1.0,
+               help='time between recordings, hours (default 1; at most 10000 recordings)')
+    add_number(long, '--resistance-rise', low=0.0, high=10.0, metavar='F', default=PAPER_RISE,
+               help=f'R rises to (1 + F) R0 with the coil temperature (default {PAPER_RISE}, the paper\'s 0.45 -> '
+                    f'0.57 ohm)')
+    add_number(long, '--thermal-time', low=1e-3, high=1e6, open_low=False, unit='h', metavar='H', default=20.0,
+               help='time constant of that rise, hours (default 20)')
+    long.add_argument('--step', action='append', default=[], metavar='NAME=FACTOR@HOUR',
+                      help='a parameter multiplied by FACTOR from HOUR on, e.g. damping=1.3@60 (repeatable)')
+    parser.add_argument('--force', action='store_true', help='replace DIR if it holds a bag (or a fleet) already')
 
 
 def frames(values, n, state):
@@ -53,15 +74,15 @@ def frames(values, n, state):
             yield k, values[k:min(k + n, intervals)]
 
 
-def write_bag(result, path, scenario):
-    """The LoopResult `result` as a bag at `path` (see the module doc)."""
+def write_bag(result, path, scenario, offset=0.0):
+    """The LoopResult `result` as a bag at `path` (see the module doc), its stamps `offset` s later."""
     from emla_core import topics
     from emla_core.bag import BagWriter
     from emla_core.messages import effect_message, estimate_message, frame_message, time_msg
     from emla_core.parameters import PARAMETER_NAMES
 
     recording = result.recording
-    period, start = recording.sample_period, topics.to_ns(recording.start_time)
+    period, start = recording.sample_period, topics.to_ns(recording.start_time + offset)
     step = topics.to_ns(period)
     n, n_true = round(topics.CONTROL_PERIOD / period), round(topics.ESTIMATE_PERIOD / period)
     end = start + (len(recording) - 1) * step
@@ -72,7 +93,8 @@ def write_bag(result, path, scenario):
                topics.PLANT_TOPICS['position']: (result.truth['position'], True, n_true),
                topics.COMMAND_TOPIC: (recording.signals['voltage'], False, n),
                topics.REFERENCE_TOPIC: (recording.signals['reference'], False, n_true)}
-    logged = [(f, topics.to_ns(t)) for f, t in enumerate(result.frame_times) if topics.to_ns(t) <= end]
+    logged = [(f, topics.to_ns(t + offset)) for f, t in enumerate(result.frame_times)
+              if topics.to_ns(t + offset) <= end]
     truth = {name: float(values[logged[-1][0]]) for name, values in result.true_parameters.items()}
     zero = dict.fromkeys(PARAMETER_NAMES, 0.0)
     with BagWriter(path, custom_data={'scenario': scenario, **{f'true_{k}': repr(v) for k, v in truth.items()}}) as bag:
@@ -113,6 +135,9 @@ def _simulate(scenario, duration, model_file):
 
 
 def run(args):
+    if args.fleet:
+        return _fleet(args)
+    _no_fleet_options(args)
     check_outputs({}, [args.model_file], args.force, {'--bag': (args.bag, BAG)})
     scenario, duration = scenario_args.scenario_and_duration(args)
     started = time.monotonic()
@@ -121,4 +146,50 @@ def run(args):
     write_bag(result, args.bag, scenario.name)
     print(f'emla simulate: {scenario.name}, {duration:g} s ({len(result.recording) - 1} samples) in '
           f'{time.monotonic() - started:.1f} s; bag {args.bag}', file=sys.stderr)
+    return 0
+
+
+def _no_fleet_options(args):
+    """InputError for a long run's option given without --fleet."""
+    defaults = {'hours': 100.0, 'every': 1.0, 'resistance_rise': PAPER_RISE, 'thermal_time': 20.0, 'step': []}
+    for name, default in defaults.items():
+        if getattr(args, name) != default:
+            raise InputError(f'--{name.replace("_", "-")} goes with --fleet DIR (a long run as many recordings)')
+
+
+def _fleet(args):
+    """`emla simulate --fleet DIR`: the scenario at each recording's hour of a long run, one bag each."""
+    import dataclasses
+
+    import yaml
+
+    from emla_bench.fleet import long_run, parse_step
+    check_outputs({}, [args.model_file], args.force, {'--fleet': (args.fleet, FLEET)})
+    steps = tuple(parse_step(text) for text in args.step)
+    if args.hours / args.every > MAX_RECORDINGS:
+        raise InputError(f'--hours {args.hours:g} --every {args.every:g}: more than {MAX_RECORDINGS} recordings')
+    scenario, duration = scenario_args.scenario_and_duration(args)
+    schedule = long_run(scenario.params, args.hours, args.every, resistance_rise=args.resistance_rise,
+                        thermal_time=args.thermal_time, steps=steps)
+    started = time.monotonic()
+
+    def write(directory):
+        from pathlib import Path
+        directory = Path(directory)
+        directory.mkdir()
+        manifest = []
+        for k, (start, params) in enumerate(schedule):
+            run = dataclasses.replace(scenario, params=params, seed=scenario.seed + k)
+            result = _simulate(run, duration, args.model_file)
+            name = f'run_{k:04d}'
+            write_bag(result, directory / name, scenario.name, offset=start)
+            manifest.append({'bag': name, 'start': start, 'hour': start / 3600.0,
+                             'truth': {key: float(v) for key, v in params.physical().items()}})
+        (directory / FLEET).write_text(yaml.safe_dump(
+            {'scenario': scenario.name, 'duration': duration, 'hours': args.hours, 'every': args.every,
+             'resistance_rise': args.resistance_rise, 'thermal_time': args.thermal_time,
+             'steps': [dataclasses.asdict(step) for step in steps], 'recordings': manifest}, sort_keys=False))
+    publish([(stage(args.fleet, write), args.fleet)])
+    print(f'emla simulate: {scenario.name}, {len(schedule)} recordings of {duration:g} s over {args.hours:g} h in '
+          f'{time.monotonic() - started:.1f} s; fleet {args.fleet}', file=sys.stderr)
     return 0

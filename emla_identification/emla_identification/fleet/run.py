@@ -11,6 +11,7 @@ import contextlib
 import logging
 import os
 import time
+import warnings
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -211,9 +212,12 @@ def _cluster(workers, scheduler, client):
             yield remote, scheduler, len(remote.nthreads())
         return
     count = workers or len(os.sched_getaffinity(0))
-    with LocalCluster(n_workers=count, threads_per_worker=1, processes=True, host='127.0.0.1',
-                      dashboard_address=None, silence_logs=logging.ERROR) as cluster, \
-            Client(cluster, set_as_default=False) as local:
+    with warnings.catch_warnings():   # (a busy dashboard port and the like: nothing the user asked about)
+        warnings.simplefilter('ignore')
+        cluster = LocalCluster(n_workers=count, threads_per_worker=1, processes=True, host='127.0.0.1',
+                               dashboard_address=None, scheduler_kwargs={'dashboard': False},
+                               silence_logs=logging.ERROR)
+    with cluster, Client(cluster, set_as_default=False) as local:
         yield local, 'local', count
 
 
