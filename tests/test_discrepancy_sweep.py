@@ -1,0 +1,95 @@
+"""A small fixed subset of the discrepancy sweep (scripts/discrepancy_sweep.py, `make sweep`): the machinery
+end to end on the installed suite (a clean record comes out adequate, a strong Coulomb friction is named, a case
+that raises is a result, the dask run appends JSON lines and resumes) and the report writer."""
+import json
+import sys
+from pathlib import Path
+
+import pytest
+
+SCRIPTS = Path(__file__).resolve().parent.parent / 'scripts'
+sys.path.insert(0, str(SCRIPTS))
+import discrepancy_sweep as sweep  # noqa: E402
+
+
+def test_a_clean_record_is_adequate_and_a_strong_friction_is_named():
+    clean = sweep.run_case(sweep.make_case(25, kind='clean', effects={}, rate=10000.0, actuator='table1',
+                                           duration=1.0))
+    assert clean['error'] is None, clean.get('traceback')
+    assert clean['verdict'] == 'adequate' and clean['named'] == [] and sweep.success(clean)
+    friction = sweep.run_case(sweep.make_case(10, kind='single', rate=10000.0, actuator='table1', duration=1.0,
+                                              effects={'coulomb_friction': {'force': 1.5, 'presliding': 2e-6}}))
+    assert friction['error'] is None, friction.get('traceback')
+    assert 'coulomb_friction' in friction['named'] and friction['strength'] > sweep.FIVE
+    assert friction['effect_parameters']['coulomb_force']['value'] == pytest.approx(1.5, rel=0.05)
+    for r in (clean, friction):   # every figure the sweep reads is there and JSON-able
+        json.dumps(r, allow_nan=False) if not r['numeric_problems'] else json.dumps(r)
+        assert set(r['nominal_sigma']) == set(sweep.NOMINAL)
+
+
+def test_a_case_that_raises_is_a_result():
+    case = sweep.make_case(3, kind='single', effects={'no_such_effect': {}}, duration=0.2)
+    r = sweep.run_case(case)
+    assert r['error'].startswith('ValueError') and 'no_such_effect' in r['error']
+    assert sweep.outcome(r) == 'failed' and not sweep.success(r)
+
+
+def test_numeric_problems_are_found():
+    found = sweep.numeric_problems({'a': float('nan'), 'b': [1.0, float('inf')],
+                                    'c': 'removes -1286 % of the disagreement; removes only nan % of it',
+                                    'd': 'removes -50 % (information, infinite care) 100 %'})
+    assert {(p['where'], p['what']) for p in found} == {
+        ('json.a', 'nan'), ('json.b[i]', 'inf'), ('json.c', 'percentage < -100 %'), ('json.c', 'nan')}
+
+
+def _result(seed, kind, hidden, verdict, named, strength=10.0, rate=10000.0, sigma=0.5, problems=()):
+    case = {'seed': seed, 'kind': kind, 'actuator': 'table1', 'params': {}, 'rate': rate, 'duration': 3.0,
+            'effects': {h: {'force': 1.0} for h in hidden}, 'levels': {h: 0.5 for h in hidden}}
+    return {'seed': seed, 'case': case, 'hidden': sorted(hidden), 'kind': kind, 'rate': rate, 'code': 'abc123',
+            'error': None, 'verdict': verdict, 'named': named, 'strength': strength, 'power_ratio': strength ** 2,
+            'single_strength': {h: strength for h in hidden} if kind == 'pair' else None,
+            'disagreement_final': {'mechanical': {'ratio': 9.0 if verdict == 'unexplained' else 1.0,
+                                                  'adequate': verdict != 'unexplained', 'depends_on': []}},
+            'candidates': [{'effect': 'coulomb_friction', 'score': 0.9, 'significant': True}],
+            'nominal_sigma': {k: sigma for k in sweep.NOMINAL}, 'nominal_error': {k: 1e-4 for k in sweep.NOMINAL},
+            'effect_parameters': {}, 'numeric_problems': list(problems), 'seconds': 1.0}
+
+
+def test_the_report_lists_rates_and_every_miss(tmp_path):
+    results = [
+        _result(1, 'clean', [], 'adequate', [], strength=0.3),
+        _result(2, 'clean', [], 'unexplained', [], strength=3.0),                            # a miss
+        _result(3, 'single', ['coulomb_friction'], 'explained', ['coulomb_friction']),
+        _result(4, 'single', ['return_spring'], 'unexplained', [], strength=40.0),          # a miss
+        _result(5, 'single', ['return_spring'], 'adequate', [], strength=1.0),              # weak: not counted
+        _result(6, 'pair', ['coulomb_friction', 'return_spring'], 'explained', ['return_spring', 'coulomb_friction']),
+        _result(7, 'single', ['sensor_delay'], 'explained', ['sensor_delay'], rate=2000.0, sigma=7.0),
+        _result(8, 'outside', ['cogging'], 'unexplained', ['return_spring'], problems=[
+            {'where': 'json.candidates[i].evidence', 'what': 'percentage < -100 %', 'text': 'removes -300 %'}]),
+    ]
+    results.append({'seed': 9, 'case': results[2]['case'] | {'seed': 9}, 'hidden': ['coulomb_friction'],
+                    'kind': 'single', 'rate': 10000.0, 'code': 'abc123', 'error': 'RuntimeError: boom'})
+    doc = sweep.write_report({r['seed']: r for r in results}, tmp_path / 'sweep.md', command='the command')
+    text = doc.read_text()
+    assert 'the command' in text and '9 cases' in text
+    assert '| clean records called adequate (nothing named) | 1/2 (50.0 %) | 0/0 (-) | 1/2 (50.0 %) |' in text
+    assert '| a pair, both above 5x: both named and explained | 1/1 (100.0 %) |' in text
+    assert '| an effect outside the library: nothing named | 0/1 (0.0 %) |' in text
+    misses = text.split('## Every miss, by case')[1]
+    for seed in (2, 4, 8, 9):
+        assert f'--case {seed} --code abc123' in misses
+    assert '--case 5 ' not in misses.split('Re-identified parameters beyond')[0]
+    assert '| 7 | 2 kHz |' in misses                      # its parameters are 7 sigma off
+    assert 'percentage < -100 %' in text and 'RuntimeError: boom' in text
+
+
+def test_the_sweep_runs_on_dask_appends_and_resumes(tmp_path):
+    out, doc = tmp_path / 'sweep.jsonl', tmp_path / 'sweep.md'
+    argv = ['--cases', '2', '--first-seed', '19', '--workers', '1', '--duration', '0.5', '--out', str(out),
+            '--doc', str(doc), '--code', 'installed', '--no-report-text']
+    assert sweep.main(argv) == 0
+    lines = [json.loads(line) for line in out.read_text().splitlines()]
+    assert sorted(r['seed'] for r in lines) == [19, 20]
+    assert '2 cases' in doc.read_text()
+    assert sweep.main(argv + ['--resume']) == 0           # nothing left to run: the same results
+    assert len(out.read_text().splitlines()) == 2
