@@ -136,15 +136,19 @@ def fit(statistics, sample_period, noise=True, start=None):
     of the coefficients, or (noise=False, for per-frame use) as if the rows' errors were white, which gives the
     same parameters when the model fits and costs far less."""
     with np.errstate(all='ignore'):
-        white = {kind: _white_covariance(s) for kind, s in statistics.items()}
-        q, covariance = _minimum_distance(statistics, white, sample_period, start)
-        if not noise or not np.all(np.isfinite(q)):
-            return q, covariance
+        if noise and start is not None and np.all(np.isfinite(start)):
+            q = np.asarray(start, dtype=float)   # a close start (online, a trajectory): the noise model about it
+        else:
+            white = {kind: _white_covariance(s) for kind, s in statistics.items()}
+            q, covariance = _minimum_distance(statistics, white, sample_period, start)
+            if not noise or not np.all(np.isfinite(q)):
+                return q, covariance
         # the noise model about the model's own coefficients (the free ones scatter widely at high rates)
         fitted = {kind: (np.eye(len(s.theta)), coefficients(kind, q, sample_period)) for kind, s in statistics.items()}
         variances = noise_variances(statistics, fitted, sample_period)
         if not any(v > 0 for v in variances.values()):   # noise-free: the white weights are all there is
-            return q, covariance
+            white = {kind: _white_covariance(s) for kind, s in statistics.items()}
+            return _minimum_distance(statistics, white, sample_period, q)
         covariances = coefficient_covariances(statistics, fitted, variances, sample_period)
         return _minimum_distance(statistics, covariances, sample_period, q)
 
