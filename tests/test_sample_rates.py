@@ -111,3 +111,21 @@ def test_a_bench_imperfection_is_warned_about(bench, clean):
     assert electrical and 'emla discrepancy' in electrical[0] and 'do not cover' in electrical[0], lines
     fit = json.loads(json.dumps(result.to_dict()))['fit']   # the JSON carries it, finite
     assert not fit['electrical']['adequate'] and fit['electrical']['ratio'] > 10.0
+
+
+def test_emla_identify_takes_a_velocity_column(tmp_path, capsys):
+    """A logger's CSV with t, voltage, current, velocity (no position): identified through the velocity's own
+    exact rows; the discrepancy workflow, which needs the position, says so in one line."""
+    from emla_cli.cli import main
+    ts = 5e-4
+    t, u, i, _, v = independent_data.simulate(duration=1.0, sample_period=ts, seed=1, velocity_noise=1e-3)
+    path = tmp_path / 'tachometer.csv'
+    np.savetxt(path, np.column_stack((t, u, i, v)), delimiter=',', header='t,voltage,current,velocity', comments='',
+               fmt='%.10g')
+    assert main(['identify', str(path)]) == 0
+    result = json.loads(capsys.readouterr().out)
+    for name in COIL:
+        assert abs(result['parameters'][name] / independent_data.TRUTH[name] - 1) < 0.01, name
+    assert result['fit']['electrical']['adequate'] and result['fit']['mechanical']['adequate']
+    assert main(['discrepancy', str(path)]) == 2
+    assert 'needs the position' in capsys.readouterr().err
