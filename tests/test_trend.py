@@ -30,11 +30,11 @@ def emla(*args, cwd=None, timeout=180):
                           timeout=timeout, cwd=cwd, env=WORKER_ENV)
 
 
-def assert_one_line_error(out, name):
+def assert_one_line_error(out, name, command='trend'):
     assert out.returncode == 2, out
     assert out.stdout == ''
     lines = out.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith('emla trend: error: '), out.stderr
+    assert len(lines) == 1 and lines[0].startswith(f'emla {command}: error: '), out.stderr
     assert name in lines[0] and 'Traceback' not in out.stderr
 
 
@@ -295,3 +295,27 @@ def test_an_unreachable_scheduler_is_one_line(fleet):
 
 if __name__ == '__main__':
     sys.exit(pytest.main([__file__, '-q']))
+
+
+def test_simulate_fleet_writes_a_long_run_stamped_by_hour_with_its_truth(tmp_path):
+    import yaml
+
+    from emla_bench.fleet import long_run
+    from emla_core.data import load
+    from emla_core.parameters import TABLE1
+    schedule = long_run(TABLE1, 3, 1, resistance_rise=0.2, thermal_time=2.0, steps=())
+    assert [start for start, _ in schedule] == [0.0, 3600.0, 7200.0]
+    assert [p.resistance for _, p in schedule] == pytest.approx([4.0 * (1 + 0.2 * (1 - np.exp(-h / 2)))
+                                                                 for h in range(3)])
+    out = emla('simulate', '--fleet', tmp_path / 'fleet', '--hours', '2', '--duration', '0.05', '--thermal-time', '2',
+               '--resistance-rise', '0.2', '--step', 'damping=1.5@1')
+    assert out.returncode == 0, out.stderr
+    manifest = yaml.safe_load((tmp_path / 'fleet' / 'fleet.yaml').read_text())
+    assert [r['truth']['damping'] for r in manifest['recordings']] == pytest.approx([2.0, 3.0])
+    assert [r['truth']['resistance'] for r in manifest['recordings']] == pytest.approx(
+        [p.resistance for _, p in schedule[:2]])
+    for k, entry in enumerate(manifest['recordings']):
+        recording = load(tmp_path / 'fleet' / entry['bag'])
+        assert recording.start_time == pytest.approx(3600.0 * k, abs=1e-6)
+        assert float(recording.metadata['true_resistance']) == pytest.approx(entry['truth']['resistance'])
+    assert_one_line_error(emla('simulate', '--bag', tmp_path / 'b', '--step', 'damping=2@1'), '--step', 'simulate')
