@@ -161,7 +161,9 @@ def model_on_data(model, recording, source='model file'):
 
 
 def _closest_variant(candidate, settings, data):
-    """The variant of `candidate` on `data` whose numeric settings are closest (relatively) to `settings`."""
+    """The variant of `candidate` on `data` whose numeric settings are closest (relatively) to `settings`; a
+    candidate with a continuous setting (Candidate.scale) has it moved onto the given value (a bounded search
+    between the grid's ends on the same distance, which is 0 there)."""
     def distance(variant):
         total = 0.0
         for key, wanted in settings.items():
@@ -173,7 +175,19 @@ def _closest_variant(candidate, settings, data):
             else:
                 total += 0.0 if have == wanted else 1e9
         return total
-    return min(candidate.variants(data), key=distance)
+    variants = candidate.variants(data)
+    best = min(variants, key=distance)
+    if getattr(best, 'scale', None) is None or distance(best) == 0.0:
+        return best
+    grid = [v for v in {getattr(v, best.scale) for v in variants} if 0.0 < v < np.inf]
+    if len(grid) < 2:
+        return best
+    from scipy.optimize import minimize_scalar
+    search = minimize_scalar(lambda z: distance(best.at(data, float(np.exp(z)))),
+                             bounds=(np.log(min(grid)), np.log(max(grid))), method='bounded',
+                             options={'xatol': 1e-9})
+    moved = best.at(data, float(np.exp(search.x)))
+    return moved if distance(moved) < distance(best) else best
 
 
 def _coefficients(p, data):

@@ -18,10 +18,13 @@ from .effects.position_inductance import PositionInductance
 from .effects.resistance_drift import ResistanceDrift
 from .effects.return_spring import ReturnSpring
 from .effects.sensor_delay import SensorDelay
+from .effects.sensor_filter import SensorFilter
+from .effects.smooth_friction import SmoothFriction
+from .effects.stribeck_friction import StribeckFriction
 from .equations import coil_rates, friction_force
 from .online import OnlineColumn
 
 __all__ = ['AMBIENT_TEMPERATURE', 'CANDIDATES', 'EFFECTS', 'Candidate', 'CoulombFriction', 'DriveVoltageError',
            'Effect', 'ForceConstantVariation', 'InductanceSaturation', 'OnlineColumn', 'Parameter',
-           'PositionInductance', 'ResistanceDrift', 'ReturnSpring', 'SensorDelay', 'coil_rates', 'friction_force',
-           'make_effect', 'register_candidate', 'register_effect']
+           'PositionInductance', 'ResistanceDrift', 'ReturnSpring', 'SensorDelay', 'SensorFilter', 'SmoothFriction',
+           'StribeckFriction', 'coil_rates', 'friction_force', 'make_effect', 'register_candidate', 'register_effect']

@@ -43,12 +43,16 @@ def physical_scale(kind, parameters, sample_period):
 
 def noise_filters(fit, kind):
     """{signal: c}: white noise of sample k - 2 + j on `signal` adds c_j to the residual of row k (the raw
-    coefficients of the fit's tied regression; candidate terms are slow and left out)."""
+    coefficients of the fit's tied regression; candidate terms are slow and left out). Where a re-alignment
+    (a fractional delay, a sensor filter: data.Data.shaping) filtered a signal, its noise reaches the rows
+    through that filter too (c convolved with its taps; only |C(f)| matters)."""
     ts = fit.data.sample_period
     h = fit.linearised_about['resistance'] * ts / fit.linearised_about['inductance'] \
         if 'inductance' in fit.linearised_about else 0.0
     coefficients = tie(kind, h).T @ fit.theta[kind]
-    return {name: dy - dphi @ coefficients for name, (dy, dphi) in noise_stencils(kind, ts).items()}
+    shaping = getattr(fit.data, 'shaping', {})
+    return {name: np.convolve(dy - dphi @ coefficients, shaping.get(name, [1.0]))
+            for name, (dy, dphi) in noise_stencils(kind, ts).items()}
 
 
 def assess_adequacy(fit):

@@ -4,8 +4,17 @@
 position), with a point velocity estimate and room at the end for re-aligning delayed sensors.
 `State` is the set of signals at some samples: the measured ones when regressing, the predicted ones
 (current, position, velocity) when simulating; candidate effects are written against it.
+
+Re-aligning (a sensor's delay, whole or fractional, `realigned`) never re-samples the drive signal (current or
+force): with its kinks at every sample (dI/dt jumps with the held voltage) interpolation would falsify it. The
+other signals are moved to it instead: the held voltage by its interval means, the position (smooth to its
+second derivative) by an all-pass fractional delay, which leaves its noise as it is. A first-order low-pass
+on the drive signal (`unfiltered`) is matched by passing the voltage and position through the same filter;
+one on the position is undone. What that does to each signal's white noise is kept as an FIR filter
+(`shaping`), so the noise floor (adequacy.py) sees the noise the equations see.
 """
-from dataclasses import dataclass, replace
+import math
+from dataclasses import dataclass, field, replace
 from typing import ClassVar
 
 import numpy as np
@@ -16,6 +25,7 @@ from emla_identification.regressors import default_model, regressions_for
 
 from .first_order import HISTORY
 
+THIRAN_ORDER = 3       # of the all-pass that moves a smooth signal by a fraction of a sample
 MAX_DELAY = 8          # samples a sensor delay may have; the last MAX_DELAY samples are kept for re-alignment
 MIN_SAMPLES = 400      # below this neither the statistics nor the k-step predictions mean much
 
@@ -30,6 +40,7 @@ class Data:
     spare: dict            # name -> the MAX_DELAY samples that follow the window
     kinds: tuple           # regressions of first_order.py: ('electrical', 'mechanical') or ('force',)
     source: str = ''
+    shaping: dict = field(default_factory=dict)   # name -> FIR taps a re-alignment applied to its noise
     max_delay: ClassVar[int] = MAX_DELAY
 
     @classmethod
@@ -86,12 +97,87 @@ class Data:
         return self.start_time + self.sample_period * np.arange(len(self))
 
     def realigned(self, delays):
-        """Data with each sensed signal moved `delays[name]` samples earlier (undoing a sensor delay)."""
-        signals = dict(self.signals)
+        """Data with each sensed signal moved `delays[name]` samples earlier (undoing a sensor delay; a delay may
+        be fractional, 0 <= delay <= MAX_DELAY).
+
+        The drive signal (current or force) moves by whole samples only, floor(its delay); the fraction c left
+        over is applied to the others in the other direction: the held voltage becomes its mean over the
+        interval c later, c u_k-1 + (1 - c) u_k, and every other sensed signal moves delay - c samples
+        earlier, by a Thiran all-pass (`_advanced`) where that is fractional. The record's time moves by c
+        samples, which nothing reads."""
+        delays = {name: float(d) for name, d in delays.items() if d}
         for name, d in delays.items():
+            if name not in self.sensed or not 0.0 <= d <= MAX_DELAY:
+                raise ValueError(f'cannot undo a delay of {d:g} samples on {name!r}')
+        c = delays.get(self.drive, 0.0) % 1.0
+        signals, spare, shaping = dict(self.signals), dict(self.spare), dict(self.shaping)
+        n = len(self)
+        for name in self.signals:
             full = np.concatenate((self.signals[name], self.spare[name]))
-            signals[name] = full[d:d + len(self)]
-        return replace(self, signals=signals)
+            if name == 'voltage':
+                if c:   # the held voltage over [t_k - c Ts, t_k+1 - c Ts]
+                    full = c * np.concatenate((full[:1], full[:-1])) + (1.0 - c) * full
+            else:
+                shift = delays.get(name, 0.0) - c
+                if shift == round(shift):
+                    full = np.concatenate((full[int(shift):], np.repeat(full[-1:], int(shift))))
+                else:
+                    full = _advanced(full, shift)
+            signals[name], spare[name] = full[:n], full[n:]
+        return replace(self, signals=signals, spare=spare, shaping=shaping)
+
+    def unfiltered(self, name, time_constant):
+        """Data in which `name` (a sensed signal) is taken to have passed a first-order low-pass, tau dy/dt =
+        w - y, before it was sampled.
+
+        For the drive signal (current or force) the voltage and the position pass the same filter instead, so
+        that every equation holds between filtered signals (exactly for the linear model, which commutes with
+        the filter), and the drive's own noise, which dominates the electrical equation's error, is left as
+        it is: undoing the filter would amplify it, and a current's kinks at every sample with it; filtering it
+        would smooth its noise away, which the held-out errors would reward whatever the filter. The filter is
+        applied exactly to the held voltage (each interval's mean of the filtered staircase) and to a position
+        cubic through x_k-1 .. x_k+2; it starts settled at the first samples.
+
+        For the position (smooth), the filter is undone: x = y + tau dy/dt, dy/dt by central difference.
+
+        What this does to a signal's noise is kept in `shaping`."""
+        if name not in self.sensed:
+            raise ValueError(f'{name!r} is not a sensed signal of these data')
+        tau = float(time_constant)
+        if not tau > 0.0:
+            return self
+        from scipy.signal import lfilter
+        a = math.exp(-self.sample_period / tau)
+        ratio = tau / self.sample_period
+        signals, spare, shaping = dict(self.signals), dict(self.spare), dict(self.shaping)
+        n = len(self)
+        full = {k: np.concatenate((self.signals[k], self.spare[k])) for k in self.signals}
+        if name == self.drive:
+            for other in (k for k in self.signals if k != name):
+                w = full[other]
+                if other == 'voltage':   # y_k+1 = a y_k + (1 - a) u_k; interval mean u_k + (y_k - u_k) tau (1 - a) / Ts
+                    y = lfilter([1.0 - a], [1.0, -a], w, zi=[a * w[0]])[0]
+                    start = np.concatenate((w[:1], y[:-1]))
+                    full[other] = w + (start - w) * ratio * (1.0 - a)
+                else:
+                    weights = _filter_weights(a, ratio)
+                    padded = np.concatenate((w[:1], w, np.repeat(w[-1:], 2)))
+                    drive = sum(weights[j] * padded[j:j + len(w)] for j in range(4))
+                    full[other] = np.concatenate((w[:1], lfilter([1.0], [1.0, -a], drive[:-1], zi=[a * w[0]])[0]))
+                    impulse = lfilter([1.0], [1.0, -a], np.eye(1, _taps(a))[0])
+                    shaping[other] = np.convolve(shaping.get(other, [1.0]), np.convolve(weights, impulse))
+        else:
+            w = full[name]
+            c = 0.5 * ratio
+            out = w.copy()
+            out[1:-1] += c * (w[2:] - w[:-2])
+            out[0] += 2.0 * c * (w[1] - w[0])
+            out[-1] += 2.0 * c * (w[-1] - w[-2])
+            full[name] = out
+            shaping[name] = np.convolve(shaping.get(name, [1.0]), [-c, 1.0, c])
+        for k in self.signals:
+            signals[k], spare[k] = full[k][:n], full[k][n:]
+        return replace(self, signals=signals, spare=spare, shaping=shaping)
 
     def velocity(self):
         """Point velocity at every sample: five-point central difference (exact for cubic motion).
@@ -122,6 +208,41 @@ class State:
     @property
     def time(self):
         return self.data.start_time + self.data.sample_period * self.index
+
+
+def _advanced(values, shift, order=THIRAN_ORDER):
+    """values at index k + shift for every k (a fractional shift), by a Thiran all-pass fractional delay of
+    `order`: its group delay is maximally flat at low frequencies, where a smooth signal (the position) lives,
+    and its gain is 1 at every frequency, so white noise stays white at its level. (An interpolating FIR would
+    smooth the noise away, and a held-out error would reward the fraction that smooths most.) The sequence is
+    first moved round(shift) + order samples earlier (the end held), then delayed by the remaining
+    D = round(shift) + order - shift in [order - 1/2, order + 1/2], where the filter is stable and its phase
+    closest to a delay's; it starts settled."""
+    from scipy.signal import lfilter, lfilter_zi
+    whole = round(shift) + order
+    delay = whole - shift
+    k = np.arange(order + 1)
+    a = np.array([(-1.0) ** j * math.comb(order, j) *
+                  np.prod([(delay - order + m) / (delay - order + j + m) for m in range(order + 1)]) for j in k])
+    moved = np.concatenate((values[whole:], np.repeat(values[-1:], whole))) if whole >= 0 else \
+        np.concatenate((np.repeat(values[:1], -whole), values[:whole]))
+    return lfilter(a[::-1], a, moved, zi=lfilter_zi(a[::-1], a) * moved[0])[0]
+
+
+def _filter_weights(a, tau):
+    """w_j (j = -1 .. 2) with y_k+1 = a y_k + sum_j w_j x_k+j the first-order filter (time constant `tau`
+    samples, a = exp(-1/tau)) over [t_k, t_k+1] of the cubic through x_k-1 .. x_k+2 (Gauss-Legendre, exact to
+    rounding for these smooth integrands)."""
+    nodes, weights = np.polynomial.legendre.leggauss(12)
+    s = 0.5 * (nodes + 1.0)                       # in [0, 1] of the interval
+    kernel = 0.5 * weights * np.exp(-(1.0 - s) / tau) / tau
+    basis = [(-1.0, [0.0, 1.0, 2.0]), (0.0, [-1.0, 1.0, 2.0]), (1.0, [-1.0, 0.0, 2.0]), (2.0, [-1.0, 0.0, 1.0])]
+    return np.array([kernel @ np.prod([(s - o) / (node - o) for o in others], axis=0) for node, others in basis])
+
+
+def _taps(a, floor=1e-9):
+    """Length of an impulse response decaying as a^k until below `floor`."""
+    return int(min(512, max(1, math.ceil(math.log(floor) / math.log(a)) if a > 0 else 1)))
 
 
 def regression_rows(data):

@@ -8,4 +8,7 @@ from . import (  # noqa: F401
                resistance_drift,
                return_spring,
                sensor_delay,
+               sensor_filter,
+               smooth_friction,
+               stribeck_friction,
 )

@@ -1,0 +1,86 @@
+"""The Stribeck effect: dry friction higher at rest than at speed (docs/physics.md §6.2).
+
+With coulomb_friction (level Fc) it makes the Stribeck curve (Fc + dF exp(-(v / v_s)^2)) sign(v), breakaway at
+Fs = Fc + dF; alone, a friction dF exp(-(v / v_s)^2) sign(v) that vanishes at speed. This effect is the excess
+dF over the Coulomb level, so the discrepancy workflow names coulomb_friction first and this one after it, when
+the data show the friction falling with speed.
+"""
+import dataclasses
+import math
+from typing import ClassVar
+
+import numpy as np
+
+from ..candidate import Candidate, of_effect
+from ..effect import Effect, Parameter, register_effect
+from .coulomb_friction import _play
+from .smooth_friction import measured_velocity
+
+PARAMETERS = (Parameter('stribeck_force', 'N', 0.5, lower=0.0, doc='dF = Fs - Fc, the excess of the breakaway force'),)
+SETTINGS = (Parameter('stribeck_speed', 'm/s', 0.01, lower=1e-300, doc='v_s, over which the excess fades'),)
+GRID = np.geomspace(1e-3, 0.05, 8)    # v_s tried, times the record's peak speed; then refined (Candidate.scale)
+BAND = 6.0                           # the direction's pre-sliding band, in position-noise sigmas
+
+
+@dataclasses.dataclass(frozen=True)
+class _Candidate(Candidate):
+    """dF d(t) exp(-(v / v_s)^2) as a force term: d the friction direction of coulomb_friction (the play
+    operator on the measured position, band BAND position-noise sigmas: +-1 while sliding), v the measured
+    velocity (smooth_friction.measured_velocity); v_s searched over 1e-3 .. 0.05 times the peak speed (above, it
+    would be a Coulomb friction), then
+    refined."""
+
+    name: ClassVar[str] = 'stribeck_friction'
+    parameters, units = of_effect(PARAMETERS)
+    acts_on: ClassVar[tuple] = ('mechanical', 'force')
+    signs: ClassVar[tuple] = (1,)
+    scale: ClassVar[str] = 'stribeck_speed'
+    stribeck_speed: float = 0.0   # m/s
+    shape: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
+    velocity: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
+    direction: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
+
+    def variants(self, data):
+        prepared = self._prepared(data)
+        peak = max(float(np.max(np.abs(prepared.velocity))), np.finfo(float).tiny)
+        return [prepared.at(data, peak * f) for f in GRID]
+
+    def _prepared(self, data):
+        if self.velocity is not None:
+            return self
+        x = data.signals['position']
+        noise = max(1.4826 * np.median(np.abs(np.diff(x, 3))) / np.sqrt(20.0), 1e-6 * np.ptp(x))
+        return dataclasses.replace(self, velocity=measured_velocity(data),
+                                   direction=_play(x, BAND * noise)['direction'])
+
+    def at(self, data, value):
+        prepared = self._prepared(data)
+        return dataclasses.replace(prepared, stribeck_speed=float(value),
+                                   shape=prepared.direction * np.exp(-(prepared.velocity / float(value)) ** 2))
+
+    def force(self, s):
+        return self.shape[s.index][None]
+
+
+@register_effect
+@dataclasses.dataclass(frozen=True)
+class StribeckFriction(Effect):
+    """The excess dF exp(-(v / v_s)^2) sign(v) of a dry friction over its Coulomb level; the part breaks away at
+    the Coulomb level + dF. In the plant it raises the sticking level by dF and takes back
+    dF (1 - exp(-(v / v_s)^2)) sign(v) while sliding (continuous at v = 0)."""
+
+    name: ClassVar[str] = 'stribeck_friction'
+    parameters: ClassVar[tuple] = PARAMETERS
+    settings: ClassVar[tuple] = SETTINGS
+    candidate: ClassVar[type] = _Candidate
+    online_refusal: ClassVar[str] = 'its Stribeck speed is not a linear parameter (searched over whole records)'
+    control_refusal: ClassVar[str] = 'the inverse law has one friction level, the Coulomb one'
+    stribeck_force: float = 0.5
+    stribeck_speed: float = 0.01
+
+    def friction_level(self) -> float:
+        return self.stribeck_force
+
+    def extra_force(self, position: float, velocity: float) -> float:
+        fade = -math.expm1(-(velocity / self.stribeck_speed) ** 2)
+        return -self.stribeck_force * math.copysign(fade, velocity)
