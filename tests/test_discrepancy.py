@@ -96,7 +96,8 @@ def test_coulomb_friction_from_force_and_position_only():
     result = diagnose(force).to_dict()
     assert result['missing_effect'] == 'coulomb_friction'
     assert set(result['gap_before']) == {'position'}
-    assert {c['effect'] for c in result['candidates']} == {'coulomb_friction', 'return_spring', 'sensor_delay'}
+    assert {c['effect'] for c in result['candidates']} == {'coulomb_friction', 'return_spring', 'sensor_delay',
+                                                           'sensor_filter', 'smooth_friction', 'stribeck_friction'}
     assert_gap_halved(result)
 
 

@@ -3,6 +3,8 @@ import dataclasses
 import math
 from typing import ClassVar
 
+import numpy as np
+
 from ..candidate import Candidate
 from ..effect import Effect, Parameter, register_effect
 
@@ -10,12 +12,12 @@ SIGNALS = ('current', 'position', 'force')
 SETTINGS = tuple(Parameter(f'{name}_filter_time_constant', 's', 0.0, lower=0.0,
                            doc=f'tau of the {name} sensor\'s filter, tau dy/dt = {name} - y (0: none)')
                  for name in SIGNALS)
-GRID = (0.125, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0)   # time constants tried, in sample periods; then refined (scale)
+GRID = tuple(2.0 ** np.arange(-5, 4))   # time constants tried, Ts/32 .. 8 Ts; then refined (Candidate.scale)
 
 
 @dataclasses.dataclass(frozen=True)
 class _Candidate(Candidate):
-    """One sensed signal behind a first-order low-pass of time constant tau (searched from Ts/8 to 8 Ts, then
+    """One sensed signal behind a first-order low-pass of time constant tau (searched from Ts/32 to 8 Ts, then
     refined): the data are re-aligned (data.Data.unfiltered) by passing the other signals through the same
     filter, so that the equations hold between filtered signals and the filtered signal's noise stays as it is.
 
