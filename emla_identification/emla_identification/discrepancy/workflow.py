@@ -65,6 +65,8 @@ MIN_T = 3.0
 MIN_SHARE = 0.7
 MOST = 0.5         # a significant candidate removing this share of the held-out one-step error is named
 REFINE_TOLERANCE = 1e-3   # of a continuous setting's logarithm: its relative precision after the grid
+REFINE_GAIN = 1e-3        # the held-out error a refinement must save to replace the grid's point (a whole-sample
+                          # delay stays whole unless the fraction clearly pays)
 MAX_EFFECTS = 4
 SMOOTHING = 1e-3   # s, of the residuals binned against the signals
 
@@ -106,7 +108,7 @@ class Assessment:
     @property
     def evidence(self):
         params = '; '.join(f'{k} = {_format(v, s)}' for k, (v, s) in self.parameters.items())
-        settings = ', '.join(f'{k} {v:.3g}' for k, v in self.settings.items() if isinstance(v, (int, float)))
+        settings = ', '.join(f'{k} {_setting(v)}' for k, v in self.settings.items() if isinstance(v, (int, float)))
         equations = ', '.join(f'{EQUATION[k]} {100 * v:.1f} %' for k, v in self.per_equation.items())
         partial = (f'; a partial match: removes only {100 * self.share:.0f} % of the disagreement'
                    if self.significant and not self.named and np.isfinite(self.share) else '')
@@ -120,7 +122,15 @@ class Assessment:
 
 
 def _format(value, sigma):
-    return f'{value:.4g} +- {sigma:.2g}' if sigma else f'{value:.4g}'
+    """value +- sigma; 'undefined' for a figure these data do not give (a derived one of the wrong sign)."""
+    if not np.isfinite(value):
+        return 'undefined'
+    return f'{value:.4g} +- {sigma:.2g}' if sigma and np.isfinite(sigma) else f'{value:.4g}'
+
+
+def _setting(value):
+    """A setting in a line of text: 'unbounded' for an infinite one (a saturation current of a pure quadratic)."""
+    return f'{value:.3g}' if np.isfinite(value) else 'unbounded'
 
 
 @dataclass
@@ -316,8 +326,10 @@ def _physical_only(parameters):
 def removed_share(before, after):
     """The share of the disagreement `before` that a candidate removes, leaving `after`: 1 when it removes all,
     0 when none, down to -1 when it doubles it or worse (bounded both ways, whatever the sizes)."""
+    if not after < np.inf:   # a fit that failed (or diverged) on the held-out data
+        return -1.0
     largest = max(before, after)
-    return (before - after) / largest if largest > 0 else 0.0
+    return float((before - after) / largest) if largest > 0 else 0.0
 
 
 def _disagreement(adequacy):
@@ -342,22 +354,25 @@ def assess(base, candidate):
     if best.scale is not None and len(variants) > 1:
         best = _refined(best, variants, heldout_error, base.data)
     result = fit(best.realigned(base.data), base.candidates + (best,), base)
-    gain = np.nan_to_num((base.heldout - result.heldout) / base.heldout.sum(axis=0), nan=-np.inf)
+    heldout = np.nan_to_num(result.heldout, nan=np.inf)
+    gain = base.heldout - heldout   # per block and equation; each equation's share removed, bounded:
+    per_equation = [removed_share(b, a) for b, a in zip(base.heldout.sum(axis=0), heldout.sum(axis=0))]
     kinds = result.data.kinds
     part = result.added_slices()[-1][1]
     values, stds = result.added[part], result.added_std[part]
     parameters = best.reported(values, stds, result.parameters)
     resolved = not len(values) or bool(np.any(np.abs(values) >= MIN_T * stds))
     plausible = all(sign * value >= 0 for sign, value in zip(candidate.signs, values))
-    return Assessment(best.effect_name(values), result, float(gain.sum()),
-                      dict(zip(kinds, map(float, gain.sum(axis=0)))), int(np.sum(gain.sum(axis=1) > 0)),
+    return Assessment(best.effect_name(values), result, float(sum(per_equation)),
+                      dict(zip(kinds, map(float, per_equation))), int(np.sum(gain.sum(axis=1) > 0)),
                       parameters, best.settings(), resolved, plausible)
 
 
 def _refined(best, variants, error, data):
     """`best` with its continuous setting (Candidate.scale) at the held-out error's minimum between the grid
-    points either side of it (bounded Brent search in the logarithm, to REFINE_TOLERANCE), if lower there."""
-    grid = sorted({getattr(v, best.scale) for v in variants} - {np.inf})
+    points either side of it (bounded Brent search in the logarithm, to REFINE_TOLERANCE), if clearly lower there
+    (REFINE_GAIN)."""
+    grid = sorted(v for v in {getattr(v, best.scale) for v in variants} if 0.0 < v < np.inf)
     value = getattr(best, best.scale)
     if value not in grid or len(grid) < 2:
         return best
@@ -366,7 +381,7 @@ def _refined(best, variants, error, data):
     search = minimize_scalar(lambda z: error(best.at(data, np.exp(z))), bounds=(np.log(low), np.log(high)),
                              method='bounded', options={'xatol': REFINE_TOLERANCE})
     refined = best.at(data, float(np.exp(search.x)))
-    return refined if error(refined) < error(best) else best
+    return refined if error(refined) < (1.0 - REFINE_GAIN) * error(best) else best
 
 
 @dataclass
