@@ -5,7 +5,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from emla_identification.noise_floor import MAX_RATIO, low_band
+from emla_identification.noise_floor import LowBand, low_band
 
 from .first_order import noise_stencils, tie
 
@@ -13,19 +13,12 @@ EQUATION = {'electrical': 'electrical', 'mechanical': 'mechanical', 'force': 'me
 
 
 @dataclass
-class Adequacy:
+class Adequacy(LowBand):
     """One equation's held-out residual against its sensor-noise floor (low band, physical units)."""
 
-    equation: str        # 'electrical' or 'mechanical'
-    quantity: str        # 'voltage' (V) or 'force' (N)
-    residual: np.ndarray  # held-out one-step residual in physical units, per regression row
-    size: float          # RMS of the low-band residual the noise does not explain
-    floor: float         # RMS the sensor noise puts in the low band
-    ratio: float         # low-band power over the noise's prediction
-
-    @property
-    def adequate(self):
-        return self.ratio <= MAX_RATIO
+    equation: str = ''        # 'electrical' or 'mechanical'
+    quantity: str = ''        # 'voltage' (V) or 'force' (N)
+    residual: np.ndarray = None  # held-out one-step residual in physical units, per regression row
 
     def to_dict(self):
         return {'quantity': self.quantity, 'size': float(self.size), 'noise_floor': float(self.floor),
@@ -62,6 +55,6 @@ def assess_adequacy(fit):
     for kind, residual in fit.heldout_residuals().items():
         scale, quantities[kind] = physical_scale(kind, fit.parameters, ts)
         equations[kind] = (residual * scale, {name: c * scale for name, c in noise_filters(fit, kind).items()})
-    return {EQUATION[kind]: Adequacy(EQUATION[kind], quantities[kind], equations[kind][0], band.size, band.floor,
-                                     band.ratio)
+    return {EQUATION[kind]: Adequacy(band.size, band.floor, band.ratio, equation=EQUATION[kind],
+                                     quantity=quantities[kind], residual=equations[kind][0])
             for kind, band in low_band(equations, ts).items()}
