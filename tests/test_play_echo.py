@@ -62,8 +62,10 @@ def test_a_live_identifier_fed_by_play_agrees_with_offline_identification(simula
     assert online['header']['stamp'] == {'sec': 1, 'nanosec': 0} and online['samples_used'] == 10000
     offline = json.loads(subprocess.run([EMLA, 'identify', str(simulated)], check=True, capture_output=True,
                                         text=True, timeout=120).stdout)
+    # the same minimum-distance fit, started from the last estimate online and cold offline: the two runs of
+    # Levenberg-Marquardt stop within 1e-8 of each other (the uncertainties are some 1e-4 of the values)
     for name, value in offline['parameters'].items():
-        assert online[name] == pytest.approx(value, rel=1e-9)
+        assert online[name] == pytest.approx(value, rel=1e-7, abs=1e-9)   # (a load force near 0 N)
 
 
 def test_a_live_identifier_in_arx_mode_ends_with_the_offline_arx_model(simulated, tmp_path, ros_env):
