@@ -137,7 +137,8 @@ def test_offline_identification_of_the_bag_gives_the_online_estimate(runs):
     offline = json.loads(out.read_text())
     assert offline['samples'] == DURATION * 10_000
     for name, value in runs['summaries'][0]['final_parameters'].items():
-        assert offline['parameters'][name] == pytest.approx(value, rel=1e-6, abs=1e-9)
+        # (online, each fit starts from the last estimate)
+        assert offline["parameters"][name] == pytest.approx(value, rel=1e-5, abs=1e-9)
 
 
 

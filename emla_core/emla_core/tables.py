@@ -182,7 +182,8 @@ def _parse_error(path, names, dialect, message):
     """One line for pyarrow's error `message`, with the data row it is about (found by reading the file again
     up to it: this costs time only when the file is refused)."""
     width = re.search(r'Expected (\d+) columns, got (\d+)', message)
-    value = re.search(r"column #(\d+): CSV conversion error to double: invalid value '(.*)'", message)
+    # (pyarrow names the row too in some runs: "column #1: Row #3: CSV conversion error ...")
+    value = re.search(r"column #(\d+): (?:Row #\d+: )?CSV conversion error to double: invalid value '(.*)'", message)
     if width:
         row = _find_row(path, dialect, lambda fields: len(fields) != len(names))
         return f'{path}: {width.group(2)} values per row but {len(names)} columns in the header{row}'

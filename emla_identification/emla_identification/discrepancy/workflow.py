@@ -65,8 +65,6 @@ MIN_T = 3.0
 MIN_SHARE = 0.7
 MOST = 0.5         # a significant candidate removing this share of the held-out one-step error is named
 REFINE_TOLERANCE = 1e-3   # of a continuous setting's logarithm: its relative precision after the grid
-REFINE_GAIN = 1e-3        # the held-out error a refinement must save to replace the grid's point (a whole-sample
-                          # delay stays whole unless the fraction clearly pays)
 MAX_EFFECTS = 4
 SMOOTHING = 1e-3   # s, of the residuals binned against the signals
 
@@ -370,8 +368,7 @@ def assess(base, candidate):
 
 def _refined(best, variants, error, data):
     """`best` with its continuous setting (Candidate.scale) at the held-out error's minimum between the grid
-    points either side of it (bounded Brent search in the logarithm, to REFINE_TOLERANCE), if clearly lower there
-    (REFINE_GAIN)."""
+    points either side of it (bounded Brent search in the logarithm, to REFINE_TOLERANCE), if lower there."""
     grid = sorted(v for v in {getattr(v, best.scale) for v in variants} if 0.0 < v < np.inf)
     value = getattr(best, best.scale)
     if value not in grid or len(grid) < 2:
@@ -381,7 +378,7 @@ def _refined(best, variants, error, data):
     search = minimize_scalar(lambda z: error(best.at(data, np.exp(z))), bounds=(np.log(low), np.log(high)),
                              method='bounded', options={'xatol': REFINE_TOLERANCE})
     refined = best.at(data, float(np.exp(search.x)))
-    return refined if error(refined) < (1.0 - REFINE_GAIN) * error(best) else best
+    return refined if error(refined) < error(best) else best
 
 
 @dataclass
