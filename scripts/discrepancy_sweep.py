@@ -7,18 +7,19 @@ Every case comes from one integer seed (nothing else): the actuator (one of ACTU
 effect the library lacks), the effects' strengths (log-uniform over LEVELS, from below the noise floor to
 strong) and the record's noise. Rerun one case, with its full JSON, by its seed:
 
-    .venv/bin/python scripts/discrepancy_sweep.py --case SEED
+    .venv/bin/python scripts/discrepancy_sweep.py --case SEED [--code COMMIT]
 
 The sweep (`make discrepancy-sweep`, called by `make sweep`):
 
-    .venv/bin/python scripts/discrepancy_sweep.py --cases 240 --workers 2 --out out/discrepancy-sweep.jsonl
-    .venv/bin/python scripts/discrepancy_sweep.py --cases 240 --resume          # go on after an interruption
+    .venv/bin/python scripts/discrepancy_sweep.py --cases 400 --workers 2 --out out/discrepancy-sweep.jsonl
+    .venv/bin/python scripts/discrepancy_sweep.py --cases 400 --resume          # go on after an interruption
     .venv/bin/python scripts/discrepancy_sweep.py --report-only                 # rewrite the document
 
 runs the cases on dask.distributed (a LocalCluster of --workers processes, one thread each), appends each
 result to the JSON-lines file as it finishes (a case that raises is a result too: its one-line error), shows
-progress on stderr, and writes docs/discrepancy-sweep.md from the JSON-lines file (sweep_report.py's
-`write_report`).
+progress on stderr, and writes docs/discrepancy-sweep.md from the JSON-lines file (`write_report`). The suite
+measured is the one committed at --code (default HEAD), exported to out/sweep-code/COMMIT, so that others
+reinstalling .venv or editing the work tree meanwhile change nothing; `--code installed` measures .venv's.
 
 Strength over the noise floor: the workflow's own adequacy measure of the NOMINAL model on the record
 (`disagreement_nominal` of the JSON): per equation the RMS of the low-band residual the sensor noise does not
@@ -965,7 +966,7 @@ def write_report(results, path=DEFAULT_DOC, command=None):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0],
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument('--cases', type=int, default=240, help='number of cases (default 240)')
+    parser.add_argument('--cases', type=int, default=400, help='number of cases (default 400)')
     parser.add_argument('--first-seed', type=int, default=1, help='the cases are seeds FIRST..FIRST+CASES-1')
     parser.add_argument('--workers', type=int, default=os.cpu_count() or 1,
                         help='dask worker processes (default: the core count)')
