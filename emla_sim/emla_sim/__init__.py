@@ -7,6 +7,8 @@
                                       physics layer (emla_core.physics.EFFECTS), by name or instance
     ParameterChange(time, name, factor)  a step change of a parameter during a run
     closed_loop(params, duration)     a Recording of the actuator under a PID position loop (test data)
+    SolenoidPlant(params)             a solenoid (emla_core.physics.SolenoidParameters), with end stops
+    solenoid.record(params, duration) a Recording of it under a voltage that moves it across its stroke
 
 Examples
 --------
@@ -22,6 +24,7 @@ _EXPORTS = {  # name -> the module that holds it
     'Plant': 'plant',
     'Sensor': 'sensor', 'SensorConfig': 'sensor',
     'ParameterChange': 'effects',
+    'SolenoidPlant': 'solenoid',
     'closed_loop': 'datasets', 'force_driven': 'datasets',
 }
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

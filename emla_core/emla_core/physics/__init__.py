@@ -4,8 +4,9 @@
 effects' one parameterisation and their registry (`EFFECTS`, `register_effect`), each built-in effect a file
 of `effects/` holding its plant terms, its discrepancy candidate (`candidate`, `CANDIDATES`), its online column
 (`online`), its compensation by the inverse law and its model-file form; `kernel` the plant's compiled
-right-hand side. The plant (emla_sim), the controller's model (emla_control), the identification and the model
-file read them instead of copies.
+right-hand side; `solenoid` the solenoid (reluctance actuator) family's parameters, magnetic circuit and compiled
+plant step, through the same right-hand side. The plant (emla_sim), the controller's model (emla_control), the
+identification and the model file read them instead of copies.
 """
 from . import effects as _builtin  # noqa: F401  (registers the built-in effects)
 from .candidate import CANDIDATES, Candidate, register_candidate
@@ -23,8 +24,10 @@ from .effects.smooth_friction import SmoothFriction
 from .effects.stribeck_friction import StribeckFriction
 from .equations import coil_rates, friction_force
 from .online import OnlineColumn
+from .solenoid import SolenoidParameters
 
 __all__ = ['AMBIENT_TEMPERATURE', 'CANDIDATES', 'EFFECTS', 'Candidate', 'CoulombFriction', 'DriveVoltageError',
            'Effect', 'ForceConstantVariation', 'InductanceSaturation', 'OnlineColumn', 'Parameter',
            'PositionInductance', 'ResistanceDrift', 'ReturnSpring', 'SensorDelay', 'SensorFilter', 'SmoothFriction',
+           'SolenoidParameters',
            'StribeckFriction', 'coil_rates', 'friction_force', 'make_effect', 'register_candidate', 'register_effect']

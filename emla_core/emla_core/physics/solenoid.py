@@ -1,0 +1,206 @@
+"""The solenoid (reluctance actuator) family: its parameters, its magnetic circuit and its compiled plant step
+(docs/physics.md §9).
+
+The coil's flux linkage is psi(x, I) = L(x) I with a leakage path in parallel with an air-gap path whose
+reluctance grows with the gap g0 - x (x > 0 closes the gap):
+
+    L(x)  = L0 + a / (g0 - x),          L'(x) = a / (g0 - x)^2
+    l     = d psi/dI = L(x)             (incremental inductance; no saturation yet)
+    e     = d psi/dx = I L'(x)          (back-EMF coefficient)
+    F     = d W'/dx  = I^2 L'(x) / 2    (co-energy force, always towards +x: it closes the gap)
+    load  = F0 + k x                    (return spring with preload F0, pushing the armature open)
+
+These are handed to equations.coil_rates, the suite's one right-hand side. The armature moves between end stops
+x_min and x_max; a stop is inelastic: the armature that reaches it stays there, at rest, while the net force
+presses it on, and leaves when that force turns.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import numbers
+
+import numba
+import numpy as np
+
+from .equations import coil_rates
+
+# The identified parameters of the family, in the order used by its identification and reports.
+SOLENOID_PARAMETER_NAMES = ('resistance', 'leakage_inductance', 'gap_coefficient', 'gap', 'mass', 'damping',
+                            'spring_stiffness', 'spring_preload')
+SOLENOID_UNITS = {'resistance': 'ohm', 'leakage_inductance': 'H', 'gap_coefficient': 'H m', 'gap': 'm',
+                  'mass': 'kg', 'damping': 'N s/m', 'spring_stiffness': 'N/m',
+                  'spring_preload': 'N (opens the gap, opposes +x)', 'stroke_min': 'm', 'stroke_max': 'm',
+                  'supply_voltage': 'V'}
+
+
+@dataclasses.dataclass(frozen=True)
+class SolenoidParameters:
+    """A solenoid's physical parameters, SI units.
+
+    Parameters
+    ----------
+    resistance : float
+        Coil resistance R (ohm), > 0.
+    leakage_inductance : float
+        L0 (H), the leakage path's inductance, >= 0.
+    gap_coefficient : float
+        a (H m), the air-gap path's inductance times its length: a / (g0 - x) is its inductance, > 0.
+    gap : float
+        g0 (m), the air gap at x = 0, > 0 and above `stroke_max` (the gap never closes fully).
+    mass : float
+        Moving mass m (kg), > 0.
+    damping : float
+        Viscous damping B (N s/m), >= 0.
+    spring_stiffness : float
+        Return spring stiffness k (N/m), >= 0.
+    spring_preload : float
+        F0 (N): the spring's force at x = 0, pushing the armature open (towards -x) when positive.
+    stroke_min, stroke_max : float
+        The end stops x_min < x_max (m).
+    supply_voltage : float
+        The driver's limit U (V), > 0: the voltage is clipped to +-U.
+
+    Examples
+    --------
+    >>> p = SolenoidParameters()
+    >>> round(p.inductance(0.0) * 1e3, 3), round(p.coil_force(0.0, 2.0), 3)   # mH, N
+    (6.333, 1.778)
+    """
+
+    resistance: float = 6.0
+    leakage_inductance: float = 5e-3
+    gap_coefficient: float = 2e-6
+    gap: float = 1.5e-3
+    mass: float = 0.02
+    damping: float = 3.0
+    spring_stiffness: float = 3000.0
+    spring_preload: float = 0.5
+    stroke_min: float = 0.0
+    stroke_max: float = 1.2e-3
+    supply_voltage: float = 24.0
+
+    def __post_init__(self):
+        for field in dataclasses.fields(self):
+            value = getattr(self, field.name)
+            if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
+                raise ValueError(f'SolenoidParameters.{field.name} must be a finite number, got {value!r}')
+            object.__setattr__(self, field.name, float(value))
+        for name in ('resistance', 'gap_coefficient', 'gap', 'mass', 'supply_voltage'):
+            if getattr(self, name) <= 0.0:
+                raise ValueError(f'SolenoidParameters.{name} must be positive, got {getattr(self, name)!r}')
+        for name in ('leakage_inductance', 'damping', 'spring_stiffness'):
+            if getattr(self, name) < 0.0:
+                raise ValueError(f'SolenoidParameters.{name} must be >= 0, got {getattr(self, name)!r}')
+        if not self.stroke_min < self.stroke_max < self.gap:
+            raise ValueError(f'SolenoidParameters needs stroke_min < stroke_max < gap, got {self.stroke_min!r}, '
+                             f'{self.stroke_max!r}, {self.gap!r}')
+
+    def identified(self) -> dict[str, float]:
+        """The parameters the identification estimates, {name: value} in SOLENOID_PARAMETER_NAMES order."""
+        return {name: getattr(self, name) for name in SOLENOID_PARAMETER_NAMES}
+
+    def replace(self, **values: float) -> SolenoidParameters:
+        """A copy with some fields set to new values."""
+        return dataclasses.replace(self, **values)
+
+    def inductance(self, position):
+        """L(x) = L0 + a / (g0 - x) (H): the flux linkage per ampere and the incremental inductance."""
+        return inductance(position, self.leakage_inductance, self.gap_coefficient, self.gap)
+
+    def inductance_slope(self, position):
+        """L'(x) = a / (g0 - x)^2 (H/m)."""
+        return inductance_slope(position, self.gap_coefficient, self.gap)
+
+    def flux_linkage(self, position, current):
+        """psi = L(x) I (V s = Wb)."""
+        return self.inductance(position) * current
+
+    def emf_coefficient(self, position, current):
+        """d psi/dx = I L'(x) (V s/m): the back-EMF is this times the velocity."""
+        return current * self.inductance_slope(position)
+
+    def coil_force(self, position, current):
+        """The co-energy force I^2 L'(x) / 2 (N, towards +x)."""
+        return 0.5 * current * current * self.inductance_slope(position)
+
+    def load(self, position):
+        """The spring's force F0 + k x (N, opposing +x)."""
+        return self.spring_preload + self.spring_stiffness * position
+
+    def kernel_vector(self) -> np.ndarray:
+        """The compiled plant's parameter vector (KERNEL_SLOTS order)."""
+        return np.array([getattr(self, name) for name in KERNEL_SLOTS])
+
+
+KERNEL_SLOTS = ('resistance', 'leakage_inductance', 'gap_coefficient', 'gap', 'mass', 'damping', 'spring_stiffness',
+                'spring_preload', 'stroke_min', 'stroke_max')
+_R, _L0, _A, _G0, _M, _B, _K, _F0, _XMIN, _XMAX = range(len(KERNEL_SLOTS))
+
+
+@numba.njit(cache=True)
+def inductance(x, leakage, coefficient, gap):
+    """L(x) = L0 + a / (g0 - x) (H)."""
+    return leakage + coefficient / (gap - x)
+
+
+@numba.njit(cache=True)
+def inductance_slope(x, coefficient, gap):
+    """L'(x) = a / (g0 - x)^2 (H/m)."""
+    return coefficient / ((gap - x) * (gap - x))
+
+
+@numba.njit(cache=True)
+def _rates(i, x, v, u, p, h):
+    """(dI/dt, dx/dt, dv/dt): the coil's l, e, F and the spring's load through coil_rates; at an end stop at rest
+    the armature stays while the net force presses it on."""
+    slope = inductance_slope(x, p[_A], p[_G0])
+    di, dv = coil_rates(i, v, u, p[_R], inductance(x, p[_L0], p[_A], p[_G0]), i * slope, 0.5 * i * i * slope,
+                        p[_M], p[_B], p[_F0] + p[_K] * x, 0.0, h)
+    if v == 0.0 and ((x >= p[_XMAX] and dv > 0.0) or (x <= p[_XMIN] and dv < 0.0)):
+        return di, 0.0, 0.0
+    return di, v, dv
+
+
+@numba.njit(cache=True)
+def _rk4(i, x, v, u, p, h):
+    """One classical RK4 step of h."""
+    a0, a1, a2 = _rates(i, x, v, u, p, h)
+    b0, b1, b2 = _rates(i + 0.5 * h * a0, x + 0.5 * h * a1, v + 0.5 * h * a2, u, p, h)
+    c0, c1, c2 = _rates(i + 0.5 * h * b0, x + 0.5 * h * b1, v + 0.5 * h * b2, u, p, h)
+    d0, d1, d2 = _rates(i + h * c0, x + h * c1, v + h * c2, u, p, h)
+    return (i + h / 6.0 * (a0 + 2.0 * (b0 + c0) + d0), x + h / 6.0 * (a1 + 2.0 * (b1 + c1) + d1),
+            v + h / 6.0 * (a2 + 2.0 * (b2 + c2) + d2))
+
+
+@numba.njit(cache=True)
+def _step(i, x, v, u, p, h):
+    """One sub-step of h with the inelastic stops: a step that crosses a stop is split where it reaches it
+    (the crossing found linearly within the step), the armature put on the stop at rest, and the rest of the
+    step taken from there."""
+    i1, x1, v1 = _rk4(i, x, v, u, p, h)
+    stop = p[_XMAX] if x1 > p[_XMAX] else p[_XMIN] if x1 < p[_XMIN] else x1
+    if stop == x1:
+        return i1, x1, v1
+    fraction = min(max((stop - x) / (x1 - x), 0.0), 1.0)
+    i1 = _rk4(i, x, v, u, p, fraction * h)[0]
+    if fraction < 1.0:
+        i1, x1, v1 = _rk4(i1, stop, 0.0, u, p, (1.0 - fraction) * h)
+    else:
+        x1, v1 = stop, 0.0
+    return i1, min(max(x1, p[_XMIN]), p[_XMAX]), v1 if p[_XMIN] < x1 < p[_XMAX] else 0.0
+
+
+@numba.njit(cache=True)
+def solenoid_sequence(state, voltages, dt, substeps, p):
+    """Rows (I, x, v, coil force) at the end of each ZOH interval of `dt` from state (I, x, v): `substeps`
+    classical RK4 steps per interval with the inelastic stops (`_step`)."""
+    out = np.empty((voltages.size, 4))
+    i, x, v = state[0], state[1], state[2]
+    h = dt / substeps
+    for k in range(voltages.size):
+        for _ in range(substeps):
+            i, x, v = _step(i, x, v, voltages[k], p, h)
+        out[k, 0], out[k, 1], out[k, 2] = i, x, v
+        out[k, 3] = 0.5 * i * i * inductance_slope(x, p[_A], p[_G0])
+    return out

@@ -1,0 +1,120 @@
+"""Solenoid test data made independently of emla_sim and emla_core.physics, for the solenoid identification.
+
+The actuator (SI units), written in its flux linkage psi:
+
+    dpsi/dt = u - R psi / L(x),          L(x) = L0 + a / (g0 - x),   I = psi / L(x)
+    m dv/dt = a psi^2 / (2 L(x)^2 (g0 - x)^2) - B v - k x - F0,     dx/dt = v
+
+between inelastic end stops x_min, x_max: the armature that reaches a stop stays on it (v = 0, psi alone
+integrated) until the net force pulls it off. Each zero-order-hold interval of the voltage is integrated by
+scipy's solve_ivp (DOP853, rtol 1e-11) with terminal events at the stops and at the release, so no step crosses a
+mode change. The voltage: levels R I_target held 3-15 ms, I_target uniform in one of three bands drawn at random
+(the armature floating, pulled shut, released). The samples at t_k = k Ts: the current plus Gaussian noise, then
+quantised by the ADC's step; the position quantised; the voltage held over [t_k, t_k+1).
+
+    rec, truth = record(rate=1000.0, seed=3)     # truth: {name: value} of the parameters
+"""
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from emla_core.recording import Recording
+
+TRUTH = {'resistance': 6.0, 'leakage_inductance': 5e-3, 'gap_coefficient': 2e-6, 'gap': 1.5e-3, 'mass': 0.02,
+         'damping': 3.0, 'spring_stiffness': 3000.0, 'spring_preload': 0.5}
+STOPS = (0.0, 1.2e-3)                      # m
+BANDS = ((1.0, 1.45), (1.45, 3.0), (0.0, 0.5))   # A
+HOLD = (3e-3, 15e-3)                       # s
+RTOL, ATOL = 1e-11, (1e-14, 1e-13, 1e-11)  # psi in V s, x in m, v in m/s
+
+
+def _model(p):
+    r, l0, a, g0, m, b, k, f0 = (p[name] for name in TRUTH)
+
+    def inductance(x):
+        return l0 + a / (g0 - x)
+
+    def net_force(psi, x, v):
+        i = psi / inductance(x)
+        return 0.5 * i * i * a / (g0 - x) ** 2 - b * v - k * x - f0
+
+    def free(t, y, u):
+        psi, x, v = y
+        return [u - r * psi / inductance(x), v, net_force(psi, x, v) / m]
+
+    def held(t, y, u, x):
+        return [u - r * y[0] / inductance(x)]
+    return free, held, net_force
+
+
+def _interval(state, u, ts, p):
+    """(psi, x, v, on_stop) after one interval at voltage u, from state (psi, x, v, on_stop)."""
+    free, held, net_force = _model(p)
+    low, high = STOPS
+    t, (psi, x, v, on_stop) = 0.0, state
+    while t < ts * (1 - 1e-12):
+        if on_stop:
+            def release(t, y, u, x=x):
+                return net_force(y[0], x, 0.0)
+            release.terminal, release.direction = True, (1 if x <= low else -1)
+            sol = solve_ivp(held, (t, ts), [psi], 'DOP853', args=(u, x), events=release, rtol=RTOL, atol=ATOL[0])
+            t, psi, v, on_stop = sol.t[-1], sol.y[0, -1], 0.0, sol.status != 1
+            continue
+
+        def hit_low(t, y, u):
+            return y[1] - low
+
+        def hit_high(t, y, u):
+            return y[1] - high
+        hit_low.terminal, hit_low.direction = True, -1
+        hit_high.terminal, hit_high.direction = True, 1
+        sol = solve_ivp(free, (t, ts), [psi, x, v], 'DOP853', args=(u,), events=(hit_low, hit_high), rtol=RTOL,
+                        atol=ATOL)
+        t, (psi, x, v) = sol.t[-1], sol.y[:, -1]
+        if sol.status == 1:   # a stop reached: put on it, at rest, held there while the force presses it on
+            x, v = (low if x < 0.5 * (low + high) else high), 0.0
+            on_stop = (net_force(psi, x, 0.0) <= 0.0) if x == low else (net_force(psi, x, 0.0) >= 0.0)
+    return psi, x, v, on_stop
+
+
+def voltage(duration, rate, rng, resistance):
+    """The held voltage levels, one per sample."""
+    n = int(round(duration * rate))
+    u = np.empty(n)
+    k = 0
+    while k < n:
+        hold = max(1, int(round(rng.uniform(*HOLD) * rate)))
+        u[k:k + hold] = resistance * rng.uniform(*BANDS[rng.integers(len(BANDS))])
+        k += hold
+    return u
+
+
+def record(duration=2.0, rate=1000.0, seed=0, params=None, current_noise=5e-3, current_step=10.0 / 2048,
+           resolution=1e-6):
+    """(Recording of t, voltage, current, position; the true parameters) of the solenoid of `params` (TRUTH)."""
+    p = dict(TRUTH, **(params or {}))
+    rng = np.random.default_rng(seed)
+    ts = 1.0 / rate
+    u = voltage(duration, rate, rng, p['resistance'])
+    n = len(u)
+    psi, x, state = np.empty(n), np.empty(n), (0.0, STOPS[0], 0.0, True)
+    for k in range(n):
+        psi[k], x[k] = state[0], state[1]
+        state = _interval(state, u[k], ts, p)
+    current = psi / (p['leakage_inductance'] + p['gap_coefficient'] / (p['gap'] - x))
+    current = current + current_noise * rng.standard_normal(n)
+    if current_step:
+        current = np.round(current / current_step) * current_step
+    position = np.round(x / resolution) * resolution if resolution else x
+    recording = Recording(ts, {'voltage': u, 'current': current, 'position': position},
+                          source=f'independent solenoid, {rate:g} Hz')
+    return recording, p
+
+
+if __name__ == '__main__':
+    import time
+    for rate in (1000.0, 5000.0):
+        started = time.monotonic()
+        rec, _ = record(rate=rate)
+        x = rec.signals['position']
+        print(f'{rate:g} Hz: {time.monotonic() - started:.1f} s; at the stops {np.mean(x <= 0):.2f} / '
+              f'{np.mean(x >= STOPS[1]):.2f}; current {np.percentile(rec.signals["current"], [5, 50, 95])}')

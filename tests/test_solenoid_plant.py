@@ -1,0 +1,45 @@
+"""The solenoid plant (emla_sim.solenoid, through emla_core.physics.solenoid and equations.coil_rates) against the
+independent generator (tests/solenoid_generator.py: flux-linkage state, scipy DOP853, stops by events)."""
+import numpy as np
+import pytest
+from solenoid_generator import record as independent_record
+
+from emla_core.physics import SolenoidParameters
+from emla_sim.solenoid import SolenoidPlant, record
+
+
+@pytest.mark.parametrize('rate', [1000.0, 5000.0])
+def test_the_plant_follows_the_independent_solution_through_the_stops(rate):
+    rec, truth = independent_record(duration=1.0, rate=rate, current_noise=0.0, current_step=0.0, resolution=0.0)
+    out = SolenoidPlant(SolenoidParameters(**truth)).run(rec.signals['voltage'], 1.0 / rate, sampling='start')
+    x = rec.signals['position']
+    assert np.mean(x <= 0.0) > 0.1 and np.mean(x >= 1.2e-3) > 0.1 and np.mean((x > 0) & (x < 1.2e-3)) > 0.2
+    assert np.max(np.abs(out['current'] - rec.signals['current'])) < 2e-4          # A (of 0-3 A)
+    assert np.max(np.abs(out['position'] - x)) < 5e-8                              # m (of a 1.2 mm stroke)
+
+
+def test_the_magnetic_circuit_and_its_force():
+    p = SolenoidParameters()
+    x, i = 0.6e-3, 2.0
+    assert p.inductance(x) == pytest.approx(5e-3 + 2e-6 / 0.9e-3)
+    slope = (p.inductance(x + 1e-9) - p.inductance(x - 1e-9)) / 2e-9
+    assert p.inductance_slope(x) == pytest.approx(slope, rel=1e-6)
+    # the force is the co-energy's slope at constant current, d(L(x) I^2 / 2)/dx
+    assert p.coil_force(x, i) == pytest.approx(0.5 * i * i * slope, rel=1e-6)
+    assert p.coil_force(x, -i) == p.coil_force(x, i) > 0
+    assert p.emf_coefficient(x, i) == pytest.approx(i * slope, rel=1e-6)
+
+
+@pytest.mark.parametrize('bad', [dict(resistance=0.0), dict(stroke_max=2e-3), dict(mass=float('nan')),
+                                 dict(stroke_min=1.3e-3), dict(damping=-1.0)])
+def test_impossible_parameters_are_refused(bad):
+    with pytest.raises(ValueError, match='SolenoidParameters'):
+        SolenoidParameters(**bad)
+
+
+def test_the_recording_moves_the_armature_across_its_stroke_at_a_bias_current():
+    rec, truth = record(duration=1.0, sample_period=2e-4)
+    x, i = truth['position'], truth['current']
+    assert np.mean(x >= 1.2e-3) > 0.2 and np.mean(x <= 0.0) > 0.05 and np.mean((x > 0) & (x < 1.2e-3)) > 0.2
+    assert 0.9 < np.median(i) < 3.0 and i.max() < 3.1
+    assert rec.truth(['resistance', 'gap'])['gap'] == 1.5e-3
