@@ -25,6 +25,8 @@ STOPS = (0.0, 1.2e-3)                      # m
 BANDS = ((1.0, 1.45), (1.45, 3.0), (0.0, 0.5))   # A
 HOLD = (3e-3, 15e-3)                       # s
 RTOL, ATOL = 1e-11, (1e-14, 1e-13, 1e-11)  # psi in V s, x in m, v in m/s
+EDGE = 1e-15                               # m
+STUCK = 1e-9                               # s: a mode change sooner than this after the last is a balance
 
 
 def _model(p):
@@ -57,14 +59,18 @@ def _interval(state, u, ts, p):
                 return net_force(y[0], x, 0.0)
             release.terminal, release.direction = True, (1 if x <= low else -1)
             sol = solve_ivp(held, (t, ts), [psi], 'DOP853', args=(u, x), events=release, rtol=RTOL, atol=ATOL[0])
+            if sol.status == 1 and sol.t[-1] - t < STUCK:   # the force balanced on the stop: held a moment longer
+                sol = solve_ivp(held, (t, min(t + STUCK, ts)), [psi], 'DOP853', args=(u, x), rtol=RTOL, atol=ATOL[0])
+                t, psi = sol.t[-1], sol.y[0, -1]
+                continue
             t, psi, v, on_stop = sol.t[-1], sol.y[0, -1], 0.0, sol.status != 1
             continue
 
-        def hit_low(t, y, u):
-            return y[1] - low
+        def hit_low(t, y, u):   # (just beyond the stops: an armature leaving one does not hit it at once)
+            return y[1] - low + EDGE
 
         def hit_high(t, y, u):
-            return y[1] - high
+            return y[1] - high - EDGE
         hit_low.terminal, hit_low.direction = True, -1
         hit_high.terminal, hit_high.direction = True, 1
         sol = solve_ivp(free, (t, ts), [psi, x, v], 'DOP853', args=(u,), events=(hit_low, hit_high), rtol=RTOL,

@@ -13,10 +13,11 @@ DOC = Path(__file__).resolve().parents[1] / 'docs' / 'physics.md'
 
 
 def _section(text, heading):
-    """The text under the markdown heading that starts with `heading`, up to the next heading of its level."""
+    """The text under the markdown heading that starts with `heading`, up to the next heading of its level or a
+    higher one."""
     level = heading.split(' ')[0]
     start = text.index('\n' + heading) + 1
-    match = re.compile(rf'^{level} ', re.M).search(text, start + len(heading))
+    match = re.compile(rf'^#{{1,{len(level)}}} ', re.M).search(text, start + len(heading))
     return text[start:match.start() if match else len(text)]
 
 

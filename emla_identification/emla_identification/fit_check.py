@@ -98,16 +98,17 @@ def check_fit(signals, statistics, q, sample_period):
         equations[kind] = (residuals[kind], {name: c * scale for name, c in filters.items()})
     bands = low_band(equations, ts)
     index = np.arange(LEAD, LEAD + len(next(iter(residuals.values()))))
-    against = _signals(signals, index, ts)
-    out = {}
-    for kind, e in residuals.items():
-        correlation = _correlation(e)
-        singles, _ = dependence(e, against, regressors[kind], ts)
-        band = bands[kind]
-        out[EQUATION[kind]] = EquationFit(EQUATION[kind], float(np.sqrt(np.mean(e * e))), band.size, band.floor,
-                                          band.ratio, correlation, WHITE_BOUND / np.sqrt(len(e)), singles,
-                                          sizes[kind])
-    return out
+    return {EQUATION[kind]: equation_fit(EQUATION[kind], e, bands[kind], regressors[kind], signals, index, ts,
+                                         sizes[kind])
+            for kind, e in residuals.items()}
+
+
+def equation_fit(equation, residual, band, regressors, signals, index, sample_period, size_of_terms):
+    """The EquationFit of one equation's `residual` (physical units) at the samples `index` of the record's
+    `signals`, with its noise_floor.LowBand `band` and the equation's `regressors` (rows x terms)."""
+    singles, _ = dependence(residual, _signals(signals, index, sample_period), regressors, sample_period)
+    return EquationFit(equation, float(np.sqrt(np.mean(residual * residual))), band.size, band.floor, band.ratio,
+                       _correlation(residual), WHITE_BOUND / np.sqrt(len(residual)), singles, size_of_terms)
 
 
 def _physical_scale(kind, theta, q, ts):

@@ -43,12 +43,15 @@ class LowBand:
 def low_band(equations, sample_period):
     """{key: LowBand} of {key: (residual, {signal: c})}: each equation's residual per row in physical units and
     how white noise of unit variance on each measured signal enters it (c_j: the noise of the j-th sample of a
-    row's span, same units). The noise levels are fitted jointly over every equation's high band."""
+    row's span, same units; or, for rows that are not consecutive samples, a 2-D array of realisations: the
+    residuals such noise gives, each as long as the residual). The noise levels are fitted jointly over every
+    equation's high band."""
     ts = sample_period
     spectra = {}
     for key, (e, filters) in equations.items():
-        frequency, power = welch(e, fs=1.0 / ts, nperseg=min(SEGMENT, len(e) // 4), detrend='constant')
-        shapes = {name: np.abs(np.fft.rfft(c, 2 * (len(frequency) - 1))) ** 2 for name, c in filters.items()}
+        segment = min(SEGMENT, len(e) // 4)
+        frequency, power = welch(e, fs=1.0 / ts, nperseg=segment, detrend='constant')
+        shapes = {name: _shape(c, segment, 2 * (len(frequency) - 1), ts) for name, c in filters.items()}
         spectra[key] = (frequency, power, shapes)
     sources = sorted({name for *_, shapes in spectra.values() for name in shapes})
     rows, targets = [], []
@@ -68,3 +71,13 @@ def low_band(equations, sample_period):
         out[key] = LowBand(float(np.sqrt(max(measured_low - predicted_low, 0.0))), float(np.sqrt(predicted_low)),
                            float(ratio))
     return out
+
+
+def _shape(c, segment, points, ts):
+    """The power gain |C(f)|^2 of a stencil c at the Welch frequencies (an FFT of `points`), or the mean Welch
+    spectrum (segments of `segment`) of the realisations c (rows) over that of unit white noise."""
+    c = np.asarray(c, dtype=float)
+    if c.ndim == 1:
+        return np.abs(np.fft.rfft(c, points)) ** 2
+    spectra = [welch(row, fs=1.0 / ts, nperseg=segment, detrend='constant')[1] for row in c]
+    return np.mean(spectra, axis=0) / (2.0 * ts)

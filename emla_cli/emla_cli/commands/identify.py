@@ -30,6 +30,10 @@ Grey-box models, from u = R I + L dI/dt + Km v and m dv/dt = Km I - B v - Fl (SI
 Default: full with voltage/current/position, mechanical with force/position. Velocity comes from position.
 Each parameter comes with its one-sigma uncertainty.
 
+A solenoid (--actuator solenoid: a reluctance actuator, force I^2 L'(x)/2, L(x) = L0 + a/(g0 - x), a return
+spring F0 + k x, end stops): R, L0, a, g0, m, B, k, F0 with one-sigma uncertainties and the fit check, from
+voltage, current and position, offline.
+
 Black box (--model arx): y(t) + a1 y(t-1) + ... = b1 u(t-nk) + ... by recursive least squares; default
 input voltage, output current, orders 2 2 1 (the coil current's exact structure). With --forgetting 1 it
 equals batch least squares.
@@ -48,12 +52,19 @@ the exit status stays 0.
 
 """ + DATA_HELP
 MODELS = ('electrical', 'mechanical', 'full', 'arx')
+ACTUATORS = ('moving_coil', 'solenoid')
+# options of the moving coil's identification that the solenoid's (offline, whole record) does not take
+NOT_FOR_SOLENOID = {'--model': 'model', '--orders': 'orders', '--input': 'input', '--output': 'output',
+                    '--plot': 'plot', '--trajectory': 'trajectory', '--trajectory-interval': 'trajectory_interval',
+                    '--model-file': 'model_file', '--model-out': 'model_out', '--memory-time': 'memory_time'}
 PROGRESS_MIN_SAMPLES = 200_000  # smaller inputs finish too fast for a progress bar
 DEFAULT_POINTS = 200  # estimates in the trajectory (--plot, --trajectory) unless --trajectory-interval says
 
 
 def add_arguments(parser):
     parser.add_argument('data', metavar='DATA', help='CSV or MAT file, rosbag2 directory or .mcap file')
+    parser.add_argument('--actuator', default='moving_coil', metavar='FAMILY',
+                        help='moving_coil (default) or solenoid (a reluctance actuator: see above)')
     parser.add_argument('--model', default=None, metavar='MODEL',
                         help='electrical, mechanical, full or arx (default: full for voltage/current/position '
                              'data, mechanical for force/position data)')
@@ -81,6 +92,10 @@ def add_arguments(parser):
 
 
 def run(args):
+    if args.actuator not in ACTUATORS:
+        raise InputError(f'--actuator {args.actuator!r}: choose one of {", ".join(ACTUATORS)}')
+    if args.actuator == 'solenoid':
+        return _solenoid(args)
     model, orders = _options(args)
     forgetting = args.forgetting
     check_outputs({'--json': args.json, '--plot': args.plot, '--model-out': args.model_out,
@@ -90,6 +105,7 @@ def run(args):
         from emla_core.model_file import read
         structure = read(args.model_file)
     with read_warnings() as lost:  # a bag's skipped chunks and the data they cost, for the JSON too
+        parts = None
         if model == 'arx':
             recording = load_data(args)
             result, plot = _arx(recording, orders, _memory(args, forgetting, recording), args)
@@ -105,6 +121,9 @@ def run(args):
                                                                  _memory(args, forgetting, recording), args)
     found = [] if model == 'arx' else plausibility_warnings(result['parameters'], result['std'], recording)
     found += [] if found else fit   # a slip the plausibility checks name is the root cause of any misfit
+    if fit and result.get('model') == 'full' and parts is None:   # another actuator family's record?
+        from emla_identification.solenoid import solenoid_hint
+        found += [hint for hint in (solenoid_hint(recording),) if hint]
     found += unknown_figures(result)
     if model != 'arx' or found or lost:   # (an ARX result has warnings only when there are some)
         result['warnings'] = lost + warn(found, 'identify')
@@ -120,6 +139,26 @@ def run(args):
         from emla_identification.trajectory_file import write_trajectory
         files.append((args.trajectory, lambda temporary: write_trajectory(trajectory, temporary)))
     emit_json(result, args.json, files)
+    return 0
+
+
+def _solenoid(args):
+    """`emla identify --actuator solenoid`: the JSON of emla_identification.solenoid, its warnings on stderr."""
+    from emla_identification.solenoid import identify_solenoid
+    given = [flag for flag, name in NOT_FOR_SOLENOID.items() if getattr(args, name) is not None]
+    if args.forgetting != 1.0:
+        given.append('--forgetting')
+    if given:
+        raise InputError(f'{", ".join(given)} applies to the moving coil, not to --actuator solenoid (identified '
+                         f'offline over the whole record)')
+    check_outputs({'--json': args.json}, [args.data], args.force)
+    with read_warnings() as lost:
+        recording = load_data(args)
+        result = identify_solenoid(recording)
+    data = result.to_dict()
+    data['warnings'] = lost + warn(result.warnings() + unknown_figures(data), 'identify')
+    data.update(understood(recording, 'identify'))
+    emit_json(data, args.json)
     return 0
 
 

@@ -24,6 +24,9 @@ FLEET = 'fleet.yaml'   # what a fleet directory holds once complete (and --force
 MAX_RECORDINGS = 10000
 
 HELP = 'Simulate a scenario in-process and record it as a bag.'
+ACTUATORS = ('moving_coil', 'solenoid')
+SOLENOID_PERIOD = 2e-4    # s: the solenoid's record is logged at 5 kHz
+SOLENOID_DURATION = 2.0   # s
 MAX_DURATION = 600.0   # s: 6 M samples at 10 kHz, held in memory with the truth and the estimates
 
 
@@ -40,8 +43,15 @@ parameter estimates with their full covariance every 10 ms. `emla play` can feed
 
 def add_arguments(parser):
     scenario_args.add_arguments(parser, MAX_DURATION)
+    parser.add_argument('--actuator', default='moving_coil', metavar='FAMILY',
+                        help='moving_coil (default: the scenario) or solenoid: a reluctance actuator (issue 24\'s '
+                             'valve, docs/physics.md 9) driven open loop by voltage levels that move its armature '
+                             'across the stroke at 1-3 A, logged at 5 kHz with 5 mA current noise and 1 um position '
+                             'steps (default 2 s)')
     out = parser.add_mutually_exclusive_group(required=True)
     out.add_argument('--bag', metavar='DIR', help='bag directory to write (new or empty)')
+    out.add_argument('--csv', metavar='FILE.csv',
+                     help='(--actuator solenoid) a CSV of t, voltage, current, position instead of a bag')
     out.add_argument('--fleet', metavar='DIR',
                      help='a long run instead: one bag per recording (DIR/run_0000, ...; each stamped from its hour) '
                           'and DIR/fleet.yaml with each one\'s start and true parameters')
@@ -135,6 +145,12 @@ def _simulate(scenario, duration, model_file):
 
 
 def run(args):
+    if args.actuator not in ACTUATORS:
+        raise InputError(f'--actuator {args.actuator!r}: choose one of {", ".join(ACTUATORS)}')
+    if args.actuator == 'solenoid':
+        return _solenoid(args)
+    if args.csv:
+        raise InputError('--csv goes with --actuator solenoid; a scenario is recorded as a bag (--bag DIR)')
     if args.fleet:
         return _fleet(args)
     _no_fleet_options(args)
@@ -147,6 +163,51 @@ def run(args):
     print(f'emla simulate: {scenario.name}, {duration:g} s ({len(result.recording) - 1} samples) in '
           f'{time.monotonic() - started:.1f} s; bag {args.bag}', file=sys.stderr)
     return 0
+
+
+def _solenoid(args):
+    """`emla simulate --actuator solenoid`: emla_sim.solenoid.record as a bag (the measured signals' topics, the
+    plant's true ones, the voltage command, the end time; the true parameters in the bag's metadata) or a CSV."""
+    from emla_core.recording import write_csv
+    from emla_sim.solenoid import record
+    if args.scenario != 'default' or args.model_file or args.fleet:
+        raise InputError('--actuator solenoid simulates its own run: no scenario, --model-file or --fleet')
+    _no_fleet_options(args)
+    check_outputs({'--csv': args.csv}, [], args.force, {'--bag': (args.bag, BAG)} if args.bag else None)
+    duration = SOLENOID_DURATION if args.duration is None else args.duration
+    started = time.monotonic()
+    recording, truth = record(duration=duration, sample_period=SOLENOID_PERIOD)
+    if args.csv:
+        publish([(stage(args.csv, lambda temporary: write_csv(recording, temporary)), args.csv)])
+    else:
+        replace_bag(args.bag, args.force)
+        _write_solenoid_bag(recording, truth, args.bag)
+    print(f'emla simulate: solenoid, {duration:g} s ({len(recording)} samples at {1 / SOLENOID_PERIOD:g} Hz) in '
+          f'{time.monotonic() - started:.1f} s; {"CSV" if args.csv else "bag"} {args.csv or args.bag}',
+          file=sys.stderr)
+    return 0
+
+
+def _write_solenoid_bag(recording, truth, path):
+    """The solenoid's run as a bag in the graph's frames (see `frames`)."""
+    from emla_core import topics
+    from emla_core.bag import BagWriter
+    from emla_core.messages import frame_message, time_msg
+
+    period, step = recording.sample_period, topics.to_ns(recording.sample_period)
+    n, n_true = max(1, round(topics.CONTROL_PERIOD / period)), max(1, round(topics.ESTIMATE_PERIOD / period))
+    signals = {**{topics.MEASURED_TOPICS[name]: (recording.signals[name], name != 'voltage', n)
+                  for name in topics.SIGNALS},
+               **{topics.PLANT_TOPICS[name]: (truth[name], name != 'voltage', n_true) for name in topics.SIGNALS},
+               topics.COMMAND_TOPIC: (recording.signals['voltage'], False, n)}
+    end = (len(recording) - 1) * step
+    with BagWriter(path, custom_data=recording.metadata) as bag:
+        for topic in (*signals, topics.DONE_TOPIC):
+            bag.add_topic(topic, topics.RECORDED[topic][0])
+        for topic, (values, state, samples) in signals.items():
+            for first, data in frames(values, samples, state):
+                bag.write_message(topic, first * step, frame_message(first * step, period, data))
+        bag.write_message(topics.DONE_TOPIC, end, time_msg(end))
 
 
 def _no_fleet_options(args):

@@ -174,8 +174,8 @@ def _rk4(i, x, v, u, p, h):
 
 
 @numba.njit(cache=True)
-def _step(i, x, v, u, p, h):
-    """One sub-step of h with the inelastic stops: a step that crosses a stop is split where it reaches it
+def solenoid_step(i, x, v, u, p, h):
+    """(I, x, v) after one sub-step of h at voltage u, parameters p (KERNEL_SLOTS), with the inelastic stops: a step that crosses a stop is split where it reaches it
     (the crossing found linearly within the step), the armature put on the stop at rest, and the rest of the
     step taken from there."""
     i1, x1, v1 = _rk4(i, x, v, u, p, h)
@@ -194,13 +194,13 @@ def _step(i, x, v, u, p, h):
 @numba.njit(cache=True)
 def solenoid_sequence(state, voltages, dt, substeps, p):
     """Rows (I, x, v, coil force) at the end of each ZOH interval of `dt` from state (I, x, v): `substeps`
-    classical RK4 steps per interval with the inelastic stops (`_step`)."""
+    classical RK4 steps per interval with the inelastic stops (`solenoid_step`)."""
     out = np.empty((voltages.size, 4))
     i, x, v = state[0], state[1], state[2]
     h = dt / substeps
     for k in range(voltages.size):
         for _ in range(substeps):
-            i, x, v = _step(i, x, v, voltages[k], p, h)
+            i, x, v = solenoid_step(i, x, v, voltages[k], p, h)
         out[k, 0], out[k, 1], out[k, 2] = i, x, v
         out[k, 3] = 0.5 * i * i * inductance_slope(x, p[_A], p[_G0])
     return out

@@ -1,0 +1,483 @@
+"""Offline identification of a solenoid (docs/physics.md §9.1): R, L0, a, g0 from the coil's voltage, current and
+position, then m, B, k, F0 from the co-energy force, each with a one-sigma, and the fit check of each equation.
+
+Electrical, output error. Along a path x(t) of the armature between the samples and with the held voltage, the
+flux linkage obeys dpsi/dt = u - R psi / L(x) exactly; integrated over each sample interval (RK4 in sub-steps of
+at most SUBSTEP, from psi = L(x_0) I_0) it predicts the current I_k = psi_k / L(x_k), and R, L0, a, g0 minimise
+its squared difference from the measured current. The current's noise is then the output's noise alone, and what
+happens between the samples is integrated, not approximated: no discretisation or errors-in-variables bias at
+any L/R against the sample period. The start comes from the flux-form equation
+    psi_k - psi_k-1 = u_k-1 Ts - R (trapezoid of I),   psi = L0 I + a I / (g0 - x)
+by least squares over a grid of g0 (linear in R, L0, a for a fixed g0).
+
+The path between the samples matters at 1 kHz, where the armature crosses its stroke in four samples and stops
+dead: the first pass takes a cubic spline through each run of samples off the stops (`_spline_nodes`), and uses
+only the samples whose predicted current the spline's possible error spoils by less than RELIABLE of the
+current's noise (`_reliable`); the later passes take the path the identified model gives between each pair of
+measured positions (`_paths`: the solenoid's own equations with its end stops, started at the velocity that
+reaches the next measured position), PASSES passes in all.
+
+Mechanical, equation error on the rows over which the armature keeps off the stops (`free_rows`). The second
+difference of position is the triangle-weighted mean of the acceleration over [t_k-1, t_k+1] (exactly), so with
+the same weighting of every force:
+    (x_k+1 - 2 x_k + x_k-1) / Ts^2 = (F_k - B v_k - k xbar_k - F0) / m
+F_k: the weighted mean of I^2 L'(x) / 2 along the path, from the electrical model's current between the samples
+(Simpson's rule on the sub-steps; it carries no current noise), v_k the weighted mean velocity from five positions
+(exact for a quartic motion), xbar_k = (x_k-1 + 10 x_k + x_k+1) / 12 (exact for a cubic). The noisy second
+difference is the regression's output, so its noise does not bias the fit.
+
+Uncertainties: the electrical fit's from its residuals (a sandwich estimator over ELECTRICAL_LAGS samples), the
+mechanical fit's from white position noise passed through the rows' stencils (its level from the residual), and
+the electrical parameters' covariance carried into the mechanical ones through the force (the Jacobian of the
+mechanical fit by the electrical parameters).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numba
+import numpy as np
+from numpy.typing import ArrayLike
+from scipy.interpolate import CubicSpline
+from scipy.optimize import least_squares
+
+from emla_core.data import as_recording
+from emla_core.errors import InputError
+from emla_core.physics.solenoid import SOLENOID_PARAMETER_NAMES, inductance, inductance_slope, solenoid_step
+from emla_core.recording import Recording
+
+from .fit_check import equation_fit
+from .greybox import UNRESOLVED
+from .noise_floor import low_band
+
+ELECTRICAL = SOLENOID_PARAMETER_NAMES[:4]   # resistance, leakage_inductance, gap_coefficient, gap
+MECHANICAL = SOLENOID_PARAMETER_NAMES[4:]   # mass, damping, spring_stiffness, spring_preload
+SUBSTEP = 2e-5        # s: the longest RK4 sub-step of the flux linkage (an even number of them per sample)
+SETTLE = 10           # coil time constants at the start of the record left out of the current's fit
+ELECTRICAL_LAGS = 2   # samples of autocorrelation the current residual's sandwich estimator takes in
+REALISATIONS = 8      # of white position noise, for the force balance's noise floor
+MIN_FREE_ROWS = 50    # force-balance rows with the armature free, below which the mechanics are not identified
+GAP_GRID = 40         # values of g0 (geometric, from just above the stroke to 20 strokes) for the start
+STOP_STEPS = 3        # position steps (the quantisation) within which the armature's path counts as on a stop
+STOP_SHARE = 0.01     # of the stroke: the least clearance from a stop of a force-balance row's path
+RELIABLE = 0.1        # of the current's noise: the largest error a sample's predicted current may take from the path
+PASSES = 3            # electrical and mechanical fits in turn (the first on a spline path between the samples)
+
+
+@dataclass
+class SolenoidResult:
+    """The identified solenoid: `parameters` and `std` ({name: value}, SI), `covariance` (their order), `samples`,
+    `sample_period`, `fit` ({equation: fit_check.EquationFit}) and `free_rows` (force-balance rows used)."""
+
+    parameters: dict
+    std: dict
+    covariance: np.ndarray
+    samples: int
+    sample_period: float
+    free_rows: int
+    fit: dict = field(repr=False, default_factory=dict)
+    model: str = 'solenoid'
+
+    def unresolved(self) -> list:
+        """The parameters whose one-sigma exceeds UNRESOLVED of their value."""
+        return [name for name, value in self.parameters.items()
+                if name != 'spring_preload' and not self.std[name] < UNRESOLVED * abs(value)]
+
+    def warnings(self) -> list:
+        """One line for each equation that does not fit and for each unresolved parameter."""
+        lines = [line for line in (f.warning() for f in self.fit.values()) if line]
+        lines += [f'the data do not resolve the {name}: {self.parameters[name]:.4g} +- {self.std[name]:.2g}'
+                  for name in self.unresolved()]
+        return lines
+
+    def to_dict(self) -> dict:
+        """The `emla identify --actuator solenoid` JSON object."""
+        return {'model': self.model, 'samples': self.samples, 'sample_period': self.sample_period,
+                'parameters': dict(self.parameters), 'std': dict(self.std), 'free_rows': self.free_rows,
+                'fit': {name: f.to_dict() for name, f in self.fit.items()}, 'unresolved': self.unresolved()}
+
+
+def identify_solenoid(data: Recording | Path | str | None = None, *, sample_period: float | None = None,
+                      voltage: ArrayLike | None = None, current: ArrayLike | None = None,
+                      position: ArrayLike | None = None) -> SolenoidResult:
+    """Identify a solenoid's R, L0, a, g0, m, B, k, F0 from a whole record of its voltage, current and position.
+
+    Parameters
+    ----------
+    data : Recording, str or Path, optional
+        The record, or a CSV file or bag to load; leave it out to pass the arrays.
+    sample_period : float, optional
+        Ts in s of the arrays.
+    voltage, current, position : array_like, optional
+        The coil voltage held over each sample interval (V), the current (A) and the armature position (m, +x
+        closes the gap) at the interval's start.
+
+    Returns
+    -------
+    SolenoidResult
+        Parameters and one-sigmas in SI units (ohm, H, H m, m, kg, N s/m, N/m, N), the fit of each equation.
+
+    Raises
+    ------
+    InputError
+        Missing or non-finite signals, a record too short or a motion that never leaves the stops, or data the
+        model gives no estimate for; the message names the source.
+
+    Examples
+    --------
+    >>> from emla_sim.solenoid import record
+    >>> recording, _ = record(duration=1.0, sample_period=5e-4)
+    >>> result = identify_solenoid(recording)
+    >>> round(result.parameters['resistance'], 1), round(result.parameters['spring_stiffness'], -2)
+    (6.0, 3000.0)
+    """
+    recording = as_recording(data, sample_period=sample_period, voltage=voltage, current=current, position=position)
+    source = recording.source or 'recording'
+    recording.require('voltage', 'current', 'position')
+    u, i, x = (np.asarray(recording.signals[name], dtype=float) for name in ('voltage', 'current', 'position'))
+    for name, values in (('voltage', u), ('current', i), ('position', x)):
+        bad = ~np.isfinite(values)
+        if bad.any():
+            raise InputError(f'{source}: non-finite {name} at sample {int(np.argmax(bad))}')
+    ts = recording.sample_period
+    if len(u) < 4 * MIN_FREE_ROWS:
+        raise InputError(f'{source}: {len(u)} samples are too few for the solenoid model')
+    if not np.ptp(x) > 0:
+        raise InputError(f'{source}: the position never changes: the solenoid\'s inductance curve and mechanics '
+                         f'need the armature to move')
+    return _identify(u, i, x, ts, source)
+
+
+def solenoid_hint(recording: Recording) -> str | None:
+    """For a record the moving coil does not fit: a warning line that the solenoid model fits it (both of its
+    equations within their noise floors) and how to ask for it; None when it does not (or cannot be fitted)."""
+    try:
+        result = identify_solenoid(recording)
+    except InputError:
+        return None
+    if result.warnings():
+        return None
+    p = result.parameters
+    return (f'a solenoid fits these data (voltage and force balance within their noise floors; L = '
+            f'{1e3 * p["leakage_inductance"]:.3g} mH + {1e6 * p["gap_coefficient"]:.3g} uH m / '
+            f'({1e3 * p["gap"]:.3g} mm - x), force I^2 L\'(x)/2): identify it with --actuator solenoid')
+
+
+def _identify(u, i, x, ts, source):
+    substeps = 2 * max(1, math.ceil(ts / SUBSTEP / 2))
+    stopped = on_stop(x)
+    electrical = _start(u, i, x, ts)
+    keep, mechanical = None, None   # the first pass: every sample, the armature's path a spline through them
+    for _ in range(PASSES):
+        nodes = _nodes(u, i, x, stopped, electrical, mechanical, ts, substeps)
+        if keep is None:
+            keep = np.ones(len(u), bool)
+            keep[:_settling(electrical, x, ts, len(u))] = False
+            electrical = _electrical(u, i, nodes, electrical, ts, substeps, keep, x, source)[0]
+            keep &= _reliable(i, x, stopped, electrical, ts)
+        electrical, jacobian, e_residual = _electrical(u, i, nodes, electrical, ts, substeps, keep, x, source)
+        rows = free_rows(x, stopped, nodes)
+        if rows.size < MIN_FREE_ROWS:
+            raise InputError(f'{source}: the armature is free on {rows.size} force-balance rows only (at least '
+                             f'{MIN_FREE_ROWS} needed): the mechanics need it to move between its stops')
+        mechanical, m_cov, m_residual, phi, stencil = _mechanics(u, i, x, nodes, electrical, ts, substeps, rows)
+    e_cov = _sandwich(jacobian, e_residual, ELECTRICAL_LAGS)
+    gain = np.empty((4, 4))   # d(mechanical)/d(electrical)
+    for j in range(4):
+        step = 1e-6 * electrical[j]
+        shifted = electrical.copy()
+        shifted[j] += step
+        gain[:, j] = (_mechanics(u, i, x, nodes, shifted, ts, substeps, rows)[0] - mechanical) / step
+    covariance = np.zeros((8, 8))
+    covariance[:4, :4] = e_cov
+    covariance[4:, 4:] = m_cov + gain @ e_cov @ gain.T
+    covariance[4:, :4] = gain @ e_cov
+    covariance[:4, 4:] = covariance[4:, :4].T
+    values = np.concatenate((electrical, mechanical))
+    if not np.all(np.isfinite(values)) or not np.all(np.diag(covariance) >= 0):
+        raise InputError(f'{source}: the solenoid model gives no finite estimate from these data')
+    std = np.sqrt(np.diag(covariance))
+    fit = _fit(u, i, x, ts, np.flatnonzero(keep), e_residual, jacobian, electrical, m_residual, phi, rows, stencil)
+    return SolenoidResult(parameters=dict(zip(SOLENOID_PARAMETER_NAMES, map(float, values))),
+                          std=dict(zip(SOLENOID_PARAMETER_NAMES, map(float, std))), covariance=covariance,
+                          samples=len(u), sample_period=ts, free_rows=int(rows.size), fit=fit)
+
+
+def _electrical(u, i, nodes, start, ts, substeps, keep, x, source):
+    """(R, L0, a, g0), the Jacobian of the current's residual by them and that residual (at the samples `keep`):
+    the output-error fit from `start`, the armature moved along `nodes`."""
+    scale = np.abs(start)
+    low = np.array([1e-6, 0.0, 1e-6, (x.max() - x.min()) * 1e-3 + x.max()]) / scale
+
+    def residual(q):
+        return (i - _simulated(u, i, nodes, q * scale, ts, substeps)[0])[keep]
+    try:
+        solution = least_squares(residual, np.maximum(np.ones(4), low), bounds=(low, np.inf), x_scale='jac',
+                                 xtol=1e-12, ftol=1e-12)
+    except (ValueError, np.linalg.LinAlgError) as exc:
+        raise InputError(f'{source}: the solenoid model cannot be fitted to these data ({exc})') from None
+    return solution.x * scale, -solution.jac / scale, solution.fun
+
+
+def _settling(electrical, x, ts, n):
+    """Samples at the start that remember the initial flux linkage: SETTLE coil time constants (at most n / 4)."""
+    r, l0, a, g0 = electrical
+    return min(n // 4, int(SETTLE * (l0 + a / (g0 - x.min())) / r / ts))
+
+
+def _reliable(i, x, stopped, electrical, ts):
+    """The samples whose predicted current no fast stretch of the armature's path spoils: the current error that
+    the spline's error between the samples (5/384 of the fourth difference of position; on an interval in which
+    the armature meets or leaves a stop, the whole step) would cause, R I L'(x) dx Ts / L(x)^2, carried forward
+    with the coil's decay exp(-R Ts / L(x)), below RELIABLE of the current's noise (from its second difference
+    on the stops, at least 1e-6 of the current's RMS)."""
+    r, l0, a, g0 = electrical
+    quartic = np.abs(np.diff(x, 4))
+    spline = np.zeros(len(x) - 1)
+    spline[1:1 + quartic.size] = quartic
+    spline[2:2 + quartic.size] = np.maximum(spline[2:2 + quartic.size], quartic)
+    error = 5.0 / 384.0 * spline
+    meets = stopped[:-1] != stopped[1:]
+    error[meets] = np.abs(np.diff(x))[meets]
+    inductances = inductance(x[:-1], l0, a, g0)
+    kick = r * np.abs(i[:-1]) * inductance_slope(x[:-1], a, g0) * error * ts / inductances ** 2
+    carried = _carried(kick, np.exp(-r * ts / inductances))
+    still = stopped[1:-1] & stopped[:-2] & stopped[2:]
+    noise = 1.4826 * np.median(np.abs(np.diff(i, 2)[still])) / np.sqrt(6.0) if still.any() else 0.0
+    return np.concatenate(([False], carried < RELIABLE * max(noise, 1e-6 * np.sqrt(np.mean(i * i)))))
+
+
+@numba.njit(cache=True)
+def _carried(kick, decay):
+    """y_k = decay_k-1 y_k-1 + kick_k-1 (y_0 = 0), returned for k = 1 .. n: a first-order filter whose pole
+    varies from sample to sample."""
+    out = np.empty(kick.size)
+    y = 0.0
+    for k in range(kick.size):
+        y = decay[k] * y + kick[k]
+        out[k] = y
+    return out
+
+
+def on_stop(x):
+    """Which samples lie on an end stop: within half a position step (the smallest change in the record) of the
+    least or the greatest position."""
+    steps = np.diff(np.unique(x))
+    tolerance = 0.5 * steps.min() if steps.size else 0.0
+    return (x <= x.min() + tolerance) | (x >= x.max() - tolerance)
+
+
+def _spline_nodes(x, stopped, substeps):
+    """Positions at the half sub-steps of each interval, (n - 1, 2 substeps + 1), for the first pass: a cubic
+    spline through each run of samples off the stops, extended over the intervals in which the run meets a stop
+    and kept within the stroke (a spline through the kink at a stop would overshoot and ring); linear between
+    samples on stops."""
+    n = len(x)
+    fractions = np.arange(2 * substeps + 1) / (2 * substeps)
+    nodes = x[:-1, None] + np.diff(x)[:, None] * fractions[None, :]
+    free = np.flatnonzero(~stopped)
+    for run in np.split(free, np.flatnonzero(np.diff(free) > 1) + 1) if free.size else []:
+        intervals = np.arange(max(run[0] - 1, 0), min(run[-1] + 1, n - 1))
+        times = intervals[:, None] + fractions[None, :]
+        path = (CubicSpline(run, x[run])(times) if run.size >= 4
+                else np.polyval(np.polyfit(run, x[run], run.size - 1), times))
+        nodes[intervals] = np.clip(path, x.min(), x.max())
+    return nodes
+
+
+@numba.njit(cache=True)
+def _driven(u, i0, nodes, r, l0, a, g0, ts, substeps):
+    """The current at the sub-step boundaries of each interval, (n - 1, substeps + 1), the armature moved along
+    `nodes` (positions at the half sub-steps): RK4 of dpsi/dt = u - R psi / L(x(t)), psi = L(x) I."""
+    n = nodes.shape[0]
+    out = np.empty((n, substeps + 1))
+    h = ts / substeps
+    psi = inductance(nodes[0, 0], l0, a, g0) * i0
+    for k in range(n):
+        out[k, 0] = psi / inductance(nodes[k, 0], l0, a, g0)
+        for s in range(substeps):
+            x0, xm, x1 = nodes[k, 2 * s], nodes[k, 2 * s + 1], nodes[k, 2 * s + 2]
+            k1 = u[k] - r * psi / inductance(x0, l0, a, g0)
+            k2 = u[k] - r * (psi + 0.5 * h * k1) / inductance(xm, l0, a, g0)
+            k3 = u[k] - r * (psi + 0.5 * h * k2) / inductance(xm, l0, a, g0)
+            k4 = u[k] - r * (psi + h * k3) / inductance(x1, l0, a, g0)
+            psi += h / 6.0 * (k1 + 2.0 * (k2 + k3) + k4)
+            out[k, s + 1] = psi / inductance(x1, l0, a, g0)
+    return out
+
+
+@numba.njit(cache=True)
+def _interval(i, x, v, u, p, h, substeps, current, position):
+    """Integrate one interval from (I, x, v) by `substeps` sub-steps with the stops, writing the current and
+    position at the sub-step boundaries; (I, x, v) at its end."""
+    current[0], position[0] = i, x
+    for s in range(substeps):
+        i, x, v = solenoid_step(i, x, v, u, p, h)
+        current[s + 1], position[s + 1] = i, x
+    return i, x, v
+
+
+@numba.njit(cache=True)
+def _paths(u, i0, x, stopped, p, ts, substeps):
+    """The current and position at the sub-step boundaries of each interval, (n - 1, substeps + 1) each: the
+    solenoid of p (KERNEL_SLOTS; the stops at the record's extreme positions) driven by the held voltage, the
+    current carried over from interval to interval (its flux linkage continuous), the armature started on each
+    interval from the measured position: at rest on a stop, else at the velocity that brings it to the next
+    measured position (found by the secant method), or, arriving at a stop, at the velocity it had."""
+    n = x.size
+    current = np.empty((n - 1, substeps + 1))
+    position = np.empty((n - 1, substeps + 1))
+    h = ts / substeps
+    i, v_end = i0, (x[1] - x[0]) / ts
+    for k in range(n - 1):
+        if stopped[k]:
+            v = 0.0
+        elif stopped[k + 1]:
+            v = v_end
+        else:
+            v = (x[k + 1] - x[k]) / ts
+            slope = ts
+            for _ in range(4):
+                miss = _interval(i, x[k], v, u[k], p, h, substeps, current[k], position[k])[1] - x[k + 1]
+                if miss == 0.0:
+                    break
+                nudge = -miss / slope
+                again = _interval(i, x[k], v + nudge, u[k], p, h, substeps, current[k], position[k])[1] - x[k + 1]
+                if again != miss:
+                    slope = (again - miss) / nudge
+                v -= miss / slope
+        i, x_end, v_end = _interval(i, x[k], v, u[k], p, h, substeps, current[k], position[k])
+        if k + 1 < n - 1:   # the flux linkage L(x) I carries over to the measured position
+            i *= inductance(x_end, p[1], p[2], p[3]) / inductance(x[k + 1], p[1], p[2], p[3])
+    return current, position
+
+
+def _nodes(u, i, x, stopped, electrical, mechanical, ts, substeps):
+    """The armature's positions at the half sub-steps of each interval, (n - 1, 2 substeps + 1): along the spline
+    (mechanical None, the first pass), else along the paths the parameters give (`_paths`)."""
+    if mechanical is None:
+        return _spline_nodes(x, stopped, substeps)
+    kernel = np.concatenate((electrical, mechanical, (x.min(), x.max())))
+    return _paths(u, float(i[0]), x, stopped, kernel, ts, 2 * substeps)[1]
+
+
+def _simulated(u, i, nodes, electrical, ts, substeps):
+    """(current predicted at the samples, current at the sub-step boundaries) of the electrical parameters, the
+    armature moved along `nodes`."""
+    current = _driven(u, float(i[0]), nodes, *electrical, ts, substeps)
+    return np.append(current[:, 0], current[-1, -1]), current
+
+
+def _start(u, i, x, ts):
+    """(R, L0, a, g0) from the flux-form equation by least squares over a grid of g0 (the best residual)."""
+    stroke = max(np.ptp(x), 1e-9)
+    best = None
+    for g0 in x.max() + stroke * np.geomspace(1e-2, 20.0, GAP_GRID):
+        per_ampere = 1.0 / (g0 - x)
+        phi = np.column_stack((0.5 * ts * (i[1:] + i[:-1]), np.diff(i), np.diff(i * per_ampere)))
+        y = u[:-1] * ts
+        theta, *_ = np.linalg.lstsq(phi, y, rcond=None)
+        cost = np.sum((y - phi @ theta) ** 2)
+        if theta[0] > 0 and theta[2] > 0 and (best is None or cost < best[0]):
+            best = (cost, np.array([theta[0], max(theta[1], 1e-3 * theta[2] / g0), theta[2], g0]))
+    if best is None:
+        raise InputError('the solenoid model\'s flux-linkage equation has no positive R and a on these data')
+    return best[1]
+
+
+def free_rows(x, stopped, nodes):
+    """Force-balance rows k (2 <= k < n - 2) whose span t_k-2..t_k+2 the armature spends off the end stops: its path
+    between the samples (`nodes`) more than STOP_STEPS position steps (the smallest change in the record) and
+    STOP_SHARE of the stroke from them, and each of the five samples farther from them than twice the larger
+    step to its neighbours (an armature that arrives at a stop and is pulled off again between two samples
+    touches it unseen, and the path found between the samples need not show it)."""
+    steps = np.diff(np.unique(x))
+    margin = max(STOP_STEPS * (steps.min() if steps.size else 0.0), STOP_SHARE * np.ptp(x))
+    clearance = np.minimum(x - x.min(), x.max() - x)
+    travel = np.abs(np.diff(x))
+    reach = 2.0 * np.maximum(np.append(travel, 0.0), np.insert(travel, 0, 0.0))
+    sample_clear = ~stopped & (clearance > reach + margin)
+    clear = np.min(np.minimum(nodes - x.min(), x.max() - nodes), axis=1) > margin   # per interval
+    clear &= sample_clear[:-1] & sample_clear[1:]
+    window = np.lib.stride_tricks.sliding_window_view(clear, 4).all(axis=1)   # intervals k-2 .. k+1
+    return np.flatnonzero(window) + 2
+
+
+def _force_means(current, position, electrical, rows):
+    """The triangle-weighted mean over [t_k-1, t_k+1] of the coil force I^2 L'(x) / 2 at each row, from the
+    current and position at the sub-step boundaries, by Simpson's rule (the weight's kink falls on t_k)."""
+    _, _, a, g0 = electrical
+    substeps = current.shape[1] - 1
+    force = 0.5 * current ** 2 * inductance_slope(position, a, g0)   # (n - 1, substeps + 1)
+    s = np.arange(substeps + 1) / substeps
+    simpson = np.ones(substeps + 1)
+    simpson[1:-1:2], simpson[2:-1:2] = 4.0, 2.0
+    simpson /= 3.0 * substeps
+    rising, falling = simpson * s, simpson * (1.0 - s)   # weights of the interval before t_k and after
+    return force[rows - 1] @ rising + force[rows] @ falling
+
+
+def _mechanics(u, i, x, nodes, electrical, ts, substeps, rows):
+    """(m, B, k, F0), their covariance, the force balance's residual (N), its regressors at `rows` and the stencil
+    by which position noise enters the residual (N/m), the force from the electrical parameters with the armature
+    moved along `nodes`. The covariance is that of white position noise through the stencils (the residuals'
+    own lagged products would cancel to nearly nothing: the second difference holds no noise at low frequency
+    but at the ends of each run of rows)."""
+    current = _simulated(u, i, nodes, electrical, ts, substeps)[1]
+    position = nodes[:, ::2]
+    force = _force_means(current, position, electrical, rows)
+    acceleration = (x[rows + 1] - 2.0 * x[rows] + x[rows - 1]) / ts ** 2
+    velocity = (7.0 / 12.0 * (x[rows + 1] - x[rows - 1]) - (x[rows + 2] - x[rows - 2]) / 24.0) / ts
+    mean_position = (x[rows - 1] + 10.0 * x[rows] + x[rows + 1]) / 12.0
+    phi = np.column_stack((force, velocity, mean_position, np.ones(rows.size)))
+    theta, *_ = np.linalg.lstsq(phi, acceleration, rcond=None)
+    residual = acceleration - phi @ theta
+    mass = 1.0 / theta[0]
+    values = np.array([mass, -theta[1] * mass, -theta[2] * mass, -theta[3] * mass])
+    # how position noise q_k-2..q_k+2 enters a row's residual: the second difference less the fitted velocity's
+    # and mean position's shares
+    stencil = (np.array([0.0, 1.0, -2.0, 1.0, 0.0]) / ts ** 2 - theta[1] * np.array([1, -14, 0, 14, -1]) / (24 * ts)
+               - theta[2] * np.array([0.0, 1.0, 10.0, 1.0, 0.0]) / 12.0)
+    spread = np.zeros((len(x), 4))   # W: the rows' regressors carried to the samples whose noise they meet
+    for offset, weight in zip(range(-2, 3), stencil):
+        spread[rows + offset] += weight * phi
+    bread = np.linalg.inv(phi.T @ phi)
+    noise = np.mean(residual ** 2) / np.sum(stencil ** 2)   # the position noise's variance (m^2)
+    theta_cov = noise * bread @ (spread.T @ spread) @ bread
+    transform = np.array([[-mass ** 2, 0, 0, 0],                                   # d(values)/d(theta)
+                          [theta[1] * mass ** 2, -mass, 0, 0],
+                          [theta[2] * mass ** 2, 0, -mass, 0],
+                          [theta[3] * mass ** 2, 0, 0, -mass]])
+    return values, transform @ theta_cov @ transform.T, residual * mass, phi, stencil * mass
+
+
+def _sandwich(jacobian, residual, lags):
+    """Covariance of a least-squares fit with regressors (or residual Jacobian) `jacobian` and `residual`, the
+    residual correlated over up to `lags` rows: (J'J)^-1 (sum over |l| <= lags of sum_k g_k g_k+l') (J'J)^-1
+    with g_k = J_k e_k."""
+    g = jacobian * residual[:, None]
+    meat = g.T @ g
+    for lag in range(1, lags + 1):
+        cross = g[lag:].T @ g[:-lag]
+        meat += cross + cross.T
+    bread = np.linalg.inv(jacobian.T @ jacobian)
+    return bread @ meat @ bread
+
+
+def _fit(u, i, x, ts, kept, e_residual, jacobian, electrical, m_residual, phi, rows, stencil):
+    """{'electrical': EquationFit in V (the current's residual times R), 'mechanical': EquationFit in N}. The force
+    balance's rows are runs of samples with gaps between them, so the noise's share of its low band comes from
+    REALISATIONS of white position noise through its `stencil` on those rows."""
+    r = electrical[0]
+    white = np.random.default_rng(0).standard_normal((REALISATIONS, len(x)))
+    through = sum(weight * white[:, rows + offset] for offset, weight in zip(range(-2, 3), stencil))
+    equations = {'electrical': (r * e_residual, {'current': np.array([r])}),
+                 'mechanical': (m_residual, {'position': through})}
+    bands = low_band(equations, ts)
+    signals = {'voltage': u, 'current': i, 'position': x}
+    return {'electrical': equation_fit('electrical', r * e_residual, bands['electrical'], jacobian, signals, kept,
+                                       ts, r * float(np.sqrt(np.mean(i[kept] ** 2)))),
+            'mechanical': equation_fit('mechanical', m_residual, bands['mechanical'], phi, signals, rows, ts,
+                                       float(np.sqrt(np.mean(phi[:, 0] ** 2))))}
