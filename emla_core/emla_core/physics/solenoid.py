@@ -175,9 +175,9 @@ def _rk4(i, x, v, u, p, h):
 
 @numba.njit(cache=True)
 def solenoid_step(i, x, v, u, p, h):
-    """(I, x, v) after one sub-step of h at voltage u, parameters p (KERNEL_SLOTS), with the inelastic stops: a step that crosses a stop is split where it reaches it
-    (the crossing found linearly within the step), the armature put on the stop at rest, and the rest of the
-    step taken from there."""
+    """(I, x, v) after one sub-step of h at voltage u, parameters p (KERNEL_SLOTS), with the inelastic stops: a
+    step that crosses a stop is split where it reaches it (the crossing found linearly within the step), the
+    armature put on the stop at rest, and the rest of the step taken from there."""
     i1, x1, v1 = _rk4(i, x, v, u, p, h)
     stop = p[_XMAX] if x1 > p[_XMAX] else p[_XMIN] if x1 < p[_XMIN] else x1
     if stop == x1:
