@@ -13,7 +13,6 @@ from emla_bench import scenarios
 from emla_core.errors import InputError
 from emla_core.parameters import TABLE1
 from emla_core.recording import Recording
-from emla_identification.discrepancy.first_order import emf_lag
 from emla_identification.greybox import identify
 from emla_identification.online import OnlineIdentifier
 from emla_sim.datasets import TABLE2, closed_loop, force_driven, random_parameters
@@ -167,12 +166,6 @@ def test_online_residual_is_the_voltage_equation_error():
     feed(online, recording, [100])
     # 5 mA current noise over beta = (1 - alpha) / R is about 0.1 V of voltage-equation error
     assert 0.05 < online.residual_rms < 0.3
-
-
-def test_emf_lag_branches_agree():
-    assert emf_lag(0.25) == pytest.approx(0.25 / 12 - 0.25 ** 3 / 720, rel=1e-4)
-    assert emf_lag(1e-2 * (1 - 1e-12)) == pytest.approx(emf_lag(1e-2 * (1 + 1e-12)), rel=1e-12)
-    assert emf_lag(-1.0) == 0.0 and emf_lag(float('nan')) == 0.0
 
 
 def test_bad_recordings_are_input_errors():

@@ -13,8 +13,8 @@ from emla_core.model_file import Model, ModelEffect, provenance
 
 from .discrepancy.candidates import CANDIDATES
 from .discrepancy.data import Data
-from .discrepancy.first_order import emf_lag
-from .discrepancy.fit import NOMINAL, ModelOnData, fit, physical, with_systematic
+from .discrepancy.fit import ModelOnData, fit, physical, with_systematic
+from .discrepancy.rows import nominal_names
 
 
 def from_greybox(result, data, command):
@@ -139,8 +139,7 @@ def model_on_data(model, recording, source='model file'):
     """
     data = Data.from_recording(recording)
     values = model.values()
-    missing = [k for k in (NOMINAL['force'] if 'force' in data.kinds else NOMINAL['electrical'] + NOMINAL['mechanical'])
-               if k not in values]
+    missing = [k for k in nominal_names(data) if k not in values]
     if missing:
         raise InputError(f'{source}: the model lacks {", ".join(missing)} for these data')
     candidates, added = [], []
@@ -154,10 +153,10 @@ def model_on_data(model, recording, source='model file'):
         added += [given[p] for p in candidate.parameters]
     for candidate in candidates:   # a delay re-aligns the data the model sees
         data = candidate.realigned(data)
-    theta = _coefficients(values, data)
-    parameters = dict(values, sample_period=data.sample_period)
-    return ModelOnData(data=data, candidates=tuple(candidates), theta=theta, added=np.array(added, dtype=float),
-                       parameters=parameters, linearised_about=values)
+    nominal = {k: values[k] for k in nominal_names(data)}
+    return ModelOnData(data=data, candidates=tuple(candidates), shift=np.zeros(len(nominal)),
+                       added=np.array(added, dtype=float), parameters=dict(nominal, sample_period=data.sample_period),
+                       linearised_about=nominal)
 
 
 def _closest_variant(candidate, settings, data):
@@ -188,19 +187,3 @@ def _closest_variant(candidate, settings, data):
                              options={'xatol': 1e-9})
     moved = best.at(data, float(np.exp(search.x)))
     return moved if distance(moved) < distance(best) else best
-
-
-def _coefficients(p, data):
-    """The tied regression coefficients of physical parameters: the inverse of physical.coil_parameters (and
-    of force_parameters without coil signals)."""
-    ts = data.sample_period
-    if 'force' in data.kinds:
-        return {'force': np.array([1.0 / p['mass'], p['damping'] / p['mass'], p['load_force'] / p['mass']])}
-    h = p['resistance'] * ts / p['inductance']
-    alpha = np.exp(-h)
-    beta = (1.0 - alpha) / p['resistance']
-    km = p['emf_constant']
-    # the intra-sample back-EMF rise acts as the extra mass Km^2 eta Ts / R (regressors.py)
-    km_over_m = km / (p['mass'] - km * km * emf_lag(h) * ts / p['resistance'])
-    return {'electrical': np.array([alpha, beta, km * beta]),
-            'mechanical': km_over_m * np.array([1.0, p['damping'] / km, p['load_force'] / km])}

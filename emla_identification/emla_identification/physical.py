@@ -64,6 +64,26 @@ def exponential(a, terms=18):
     return e
 
 
+def input_gains(kind, q, sample_period, motion=None):
+    """(voltage gains, load gains) of a coil regression `kind` for parameter rows q: how a voltage or a load force
+    (opposing +x) held over each interval the row spans enters its output, along the last axis, one entry per
+    interval: [t_k-1, t_k] for the electrical rows, ([t_k-1, t_k], [t_k, t_k+1]) for the mechanical ones.
+
+    An extra voltage drop or force that varies slowly against the sample period (an effect's term) enters the
+    rows through these gains (the discrepancy workflow's candidate columns); a constant one through their sum."""
+    P, G, H = transition(q, sample_period) if motion is None else motion
+    if kind in ('electrical_velocity', 'mechanical_velocity'):
+        row = 0 if kind == 'electrical_velocity' else 2
+        return G[..., row, None], H[..., row, None]
+    if kind == 'electrical':
+        ratio = P[..., 0, 2] / P[..., 1, 2]
+        return (G[..., 0] - ratio * G[..., 1])[..., None], (H[..., 0] - ratio * H[..., 1])[..., None]
+    a, pxv = P[..., 2, 2], P[..., 1, 2]
+    scale = 2.0 / ((1.0 + a) * sample_period ** 2)   # the symmetric form's second difference is over Ts^2
+    return (scale[..., None] * np.stack((pxv * G[..., 2] - a * G[..., 1], G[..., 1]), -1),
+            scale[..., None] * np.stack((pxv * H[..., 2] - a * H[..., 1], H[..., 1]), -1))
+
+
 def coefficients(kind, q, sample_period, motion=None):
     """The coefficients g(q) of regression `kind` (regressors.py) for parameter rows q: [R, L, Km, m, B, Fl, p...]
     ([m, B, Fl, p...] for the force regression: [1, B, Fl, p...] / m), along the last axis; motion: transition(q)
@@ -71,24 +91,56 @@ def coefficients(kind, q, sample_period, motion=None):
     q = np.asarray(q, dtype=float)
     if kind == 'force':   # columns [f_tri, -v_tri, -1, f_effect...]: accelerations
         return q[..., :1] ** -1 * np.concatenate((np.ones_like(q[..., :1]), q[..., 1:]), axis=-1)
-    P, G, H = transition(q, sample_period) if motion is None else motion
+    P, G, H = motion = transition(q, sample_period) if motion is None else motion
+    voltage, load = input_gains(kind, q, sample_period, motion)
     # the load-force coefficients: Fl (column 1) and the effects' p (columns -f, online_effects.py)
-    loads = np.concatenate((q[..., COIL_PARAMETERS:COIL_PARAMETERS + 1], -q[..., COIL_PARAMETERS + 1:]), axis=-1)
+    loads = np.sum(load, axis=-1, keepdims=True) * np.concatenate(
+        (q[..., COIL_PARAMETERS:COIL_PARAMETERS + 1], -q[..., COIL_PARAMETERS + 1:]), axis=-1)
     if kind in ('electrical_velocity', 'mechanical_velocity'):
         row = 0 if kind == 'electrical_velocity' else 2
-        nominal = np.stack((P[..., row, 0], P[..., row, 2], G[..., row]), -1)
-        return np.concatenate((nominal, H[..., row, None] * loads), axis=-1)
+        return np.concatenate((np.stack((P[..., row, 0], P[..., row, 2], voltage[..., 0]), -1), loads), axis=-1)
     ratio, ts = P[..., 0, 2] / P[..., 1, 2], sample_period
     if kind == 'electrical':   # the displacement's column is over Ts (regressors.rows)
-        nominal = np.stack((P[..., 0, 0] - ratio * P[..., 1, 0], G[..., 0] - ratio * G[..., 1], ratio * ts), -1)
-        return np.concatenate((nominal, (H[..., 0] - ratio * H[..., 1])[..., None] * loads), axis=-1)
+        nominal = np.stack((P[..., 0, 0] - ratio * P[..., 1, 0], voltage[..., 0], ratio * ts), -1)
+        return np.concatenate((nominal, loads), axis=-1)
     a, pxv = P[..., 2, 2], P[..., 1, 2]
     scale = 2.0 / ((1.0 + a) * ts * ts)   # the second difference is over Ts^2, the central one over 2 Ts
     nominal = np.stack((-2.0 * (1.0 - a) / ((1.0 + a) * ts), scale * P[..., 1, 0],
-                        scale * (pxv * P[..., 2, 0] - a * P[..., 1, 0]), scale * G[..., 1],
-                        scale * (pxv * G[..., 2] - a * G[..., 1])), -1)
-    load = scale * ((1.0 - a) * H[..., 1] + pxv * H[..., 2])
-    return np.concatenate((nominal, load[..., None] * loads), axis=-1)
+                        scale * (pxv * P[..., 2, 0] - a * P[..., 1, 0]), voltage[..., 1], voltage[..., 0]), -1)
+    return np.concatenate((nominal, loads), axis=-1)
+
+
+def jacobian(kind, q, sample_period):
+    """(g(q), dg/dq) of regression `kind` at one parameter vector q (central differences)."""
+    q = np.asarray(q, dtype=float)
+    return coefficients(kind, q, sample_period), _differences(lambda z: coefficients(kind, z, sample_period), q,
+                                                              _steps(kind, q))
+
+
+def gains_jacobian(kind, q, sample_period):
+    """(voltage gains, load gains, their derivatives d/dq (intervals x parameters) each) of a coil regression at
+    one parameter vector q[:6] (input_gains; central differences)."""
+    q = np.asarray(q, dtype=float)
+
+    def gains(z):
+        return np.concatenate(input_gains(kind, z, sample_period), axis=-1)
+    both, derivative = gains(q), _differences(gains, q, _steps(kind, q))
+    half = len(both) // 2
+    return both[:half], both[half:], derivative[:half], derivative[half:]
+
+
+def _steps(kind, q):
+    """Difference steps: relative for the parameters g depends on nonlinearly (the coil's; the mass in the force
+    row), 1 for the linear ones (the loads)."""
+    nonlinear = np.arange(len(q)) < (1 if kind == 'force' else COIL_PARAMETERS)   # the force row's: 1/m
+    return np.where(nonlinear, 1e-6 * np.maximum(np.abs(q), 1e-300), 1.0)
+
+
+def _differences(function, z, steps):
+    """d function / d z by central differences with `steps` (function maps rows of parameters to rows)."""
+    shifted = function(np.concatenate((z + np.diag(steps), z - np.diag(steps))))
+    n = len(z)
+    return ((shifted[:n] - shifted[n:]) / (2.0 * steps[:, None])).T
 
 
 def initial_guess(statistics, sample_period):
@@ -188,9 +240,8 @@ def _minimum_distance(statistics, covariances, sample_period, start):
         return whiten @ (g(z) - theta)
 
     def jacobian(z):
-        steps = np.where(np.arange(n) < COIL_PARAMETERS, 1e-6 * np.maximum(np.abs(z), 1e-3), 1.0)
-        shifted = g(np.concatenate((z + np.diag(steps), z - np.diag(steps))))
-        return whiten @ ((shifted[:n] - shifted[n:]) / (2.0 * steps[:, None])).T
+        return whiten @ _differences(g, z, np.where(np.arange(n) < COIL_PARAMETERS, 1e-6 * np.maximum(np.abs(z), 1e-3),
+                                                    1.0))
 
     best = None
     for q0 in starts:

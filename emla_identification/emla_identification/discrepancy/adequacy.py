@@ -6,8 +6,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from emla_identification.noise_floor import LowBand, low_band
+from emla_identification.regressors import noise_stencils
 
-from .first_order import noise_stencils, tie
+from .rows import Rows
 
 EQUATION = {'electrical': 'electrical', 'mechanical': 'mechanical', 'force': 'mechanical'}   # regression kinds
 
@@ -25,36 +26,24 @@ class Adequacy(LowBand):
                 'ratio': float(self.ratio), 'adequate': bool(self.adequate)}
 
 
-def physical_scale(kind, parameters, sample_period):
-    """Residual of a row of `kind` -> physical units: the current step over beta (V) or the acceleration times
-    the mass (N)."""
-    if kind == 'electrical':
-        h = parameters['resistance'] * sample_period / parameters['inductance']
-        return parameters['resistance'] / -np.expm1(-h), 'voltage'
-    return parameters['mass'], 'force'
-
-
-def noise_filters(fit, kind):
-    """{signal: c}: white noise of sample k - 2 + j on `signal` adds c_j to the residual of row k (the raw
-    coefficients of the fit's tied regression; candidate terms are slow and left out). Where a re-alignment
-    (a fractional delay, a sensor filter: data.Data.shaping) filtered a signal, its noise reaches the rows
-    through that filter too (c convolved with its taps; only |C(f)| matters)."""
-    ts = fit.data.sample_period
-    h = fit.linearised_about['resistance'] * ts / fit.linearised_about['inductance'] \
-        if 'inductance' in fit.linearised_about else 0.0
-    coefficients = tie(kind, h).T @ fit.theta[kind]
+def noise_filters(fit, rows):
+    """{signal: c}: white noise of sample k - 3 + j on `signal` adds c_j to the residual of row k (the exact rows'
+    coefficients at the fit, `rows` the regression's Rows; candidate terms are slow and left out). Where a
+    re-alignment (a fractional delay, a sensor filter: data.Data.shaping) filtered a signal, its noise reaches the
+    rows through that filter too (c convolved with its taps; only |C(f)| matters)."""
+    coefficients = rows.coefficients + rows.jacobian @ fit.shift
     shaping = getattr(fit.data, 'shaping', {})
     return {name: np.convolve(dy - dphi @ coefficients, shaping.get(name, [1.0]))
-            for name, (dy, dphi) in noise_stencils(kind, ts).items()}
+            for name, (dy, dphi) in noise_stencils(rows.kind, fit.data.sample_period).items()}
 
 
 def assess_adequacy(fit):
-    """{equation: Adequacy} of a Fit (noise_floor.low_band of its held-out residuals)."""
-    ts = fit.data.sample_period
+    """{equation: Adequacy} of a Fit (noise_floor.low_band of its held-out residuals, in volts or newtons)."""
     equations, quantities = {}, {}
     for kind, residual in fit.heldout_residuals().items():
-        scale, quantities[kind] = physical_scale(kind, fit.parameters, ts)
-        equations[kind] = (residual * scale, {name: c * scale for name, c in noise_filters(fit, kind).items()})
+        rows = Rows(fit.data, kind, fit.linearised_about)
+        scale, quantities[kind] = rows.scale()
+        equations[kind] = (residual * scale, {name: c * scale for name, c in noise_filters(fit, rows).items()})
     return {EQUATION[kind]: Adequacy(band.size, band.floor, band.ratio, equation=EQUATION[kind],
                                      quantity=quantities[kind], residual=equations[kind][0])
-            for kind, band in low_band(equations, ts).items()}
+            for kind, band in low_band(equations, fit.data.sample_period).items()}

@@ -21,9 +21,7 @@ import numpy as np
 
 from emla_core.errors import InputError
 from emla_identification.checks import missing_signals
-from emla_identification.regressors import default_model, regressions_for
-
-from .first_order import HISTORY
+from emla_identification.regressors import HISTORY, LEAD, default_model, regressions_for
 
 THIRAN_ORDER = 3       # of the all-pass that moves a smooth signal by a fraction of a sample
 MAX_DELAY = 8          # samples a sensor delay may have; the last MAX_DELAY samples are kept for re-alignment
@@ -38,7 +36,7 @@ class Data:
     start_time: float
     signals: dict          # name -> array over the window: voltage, current, position | force, position
     spare: dict            # name -> the MAX_DELAY samples that follow the window
-    kinds: tuple           # regressions of first_order.py: ('electrical', 'mechanical') or ('force',)
+    kinds: tuple           # regressions of regressors.py: ('electrical', 'mechanical') or ('force',)
     source: str = ''
     shaping: dict = field(default_factory=dict)   # name -> FIR taps a re-alignment applied to its noise
     max_delay: ClassVar[int] = MAX_DELAY
@@ -246,5 +244,5 @@ def _taps(a, floor=1e-9):
 
 
 def regression_rows(data):
-    """Sample index of each regression row of first_order.rows (rows need samples k-2 .. k+2)."""
-    return np.arange(HISTORY // 2, len(data) - HISTORY // 2)
+    """Sample index k of each regression row of regressors.rows (rows use samples k-3 .. k+2)."""
+    return np.arange(LEAD, LEAD + max(len(data) - HISTORY, 0))

@@ -18,7 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .data import State
-from .fit import ElectricalRows, held_samples
+from .fit import held_samples
+from .rows import Rows
 
 MECHANICAL_TIME = 0.01   # s: about half the mechanical time constant m/B of Table 1 (18 ms)
 VELOCITY_SPAN = 5        # samples each side of a start used to estimate its velocity
@@ -50,18 +51,18 @@ def predict(fit):
 
 def predict_current(fit):
     data, p = fit.data, fit.parameters
-    rows = ElectricalRows(data, fit.linearised_about)
+    rows = Rows(data, 'electrical', fit.linearised_about)
     horizon = max(1, int(np.ceil(5.0 * p['inductance'] / (p['resistance'] * data.sample_period))))
-    theta = fit.theta['electrical']
+    coefficients = rows.coefficients + rows.jacobian @ fit.shift
     starts = np.arange(max(len(rows.y) - horizon + 1, 0))
     current = rows.phi[starts, 0]
     for j in range(horizon if len(starts) else 0):   # a horizon beyond the record: nothing to predict
         r = starts + j
-        step = theta[0] * current + rows.phi[r, 1:] @ theta[1:]
+        step = coefficients[0] * current + rows.phi[r, 1:] @ coefficients[1:]
         if fit.candidates:
             step += rows.columns(fit.candidates, r, current) @ fit.added
         current = step
-    index = rows.index[starts + horizon - 1] + 1
+    index = rows.index[starts + horizon - 1]
     return Prediction('current', index, data.signals['current'][index], current, horizon)
 
 

@@ -1,0 +1,193 @@
+"""The discrepancy workflow's regressions: the identification's exact sampled-data rows (regressors.py),
+linearised about a model, with the candidates' terms as further columns (docs/physics.md §3.6, §6.3).
+
+Row k of regression `kind` predicts its output y_k = phi_k g(q) for the nominal parameters q (physical.coefficients:
+exact at any sample period). About a model q0 the error of q = q0 + dq is linear in dq:
+
+    y_k - phi_k g(q0) = phi_k J dq + sum over candidates of columns_k p,      J = dg/dq at q0,
+
+so the nominal parameters are fitted as the correction dq, one for all the regressions (the coefficients of both
+coil rows depend on R, L, Km, m and B), beside the candidates' parameters p; refitting about q0 + dq (fit.fit) is
+Gauss-Newton on the exact rows.
+
+A candidate's terms enter like the inputs whose place they take, through the gains of a voltage or a load force
+held over each interval the row spans (physical.input_gains): an extra voltage drop e as -e times the voltage's
+gain, a force f (opposing +x) as f times the load's gain, an extra inductance l as phi_k (dg/dL) l.
+
+- Electrical rows (the interval [t_k-1, t_k]): the terms at the interval's state: mean position, the velocity of
+  its displacement and the mean of its start current and the model's step from it (free of the output's noise).
+- Mechanical rows (the intervals [t_k-1, t_k+1]): the terms at the measured samples k-1, k, k+1 with the weights
+  (g1 / 3, 2 (g1 + g0) / 3, g0 / 3) of the two intervals' gains g1, g0: the triangle weighting of a force linear
+  between samples, exact for a free mass. The force regression (a measured force) is the case g1 = g0 = -1 / (2 m).
+"""
+import functools
+
+import numpy as np
+
+from emla_core.parameters import PARAMETER_NAMES
+from emla_identification.physical import MODEL_PARAMETERS, gains_jacobian, jacobian
+from emla_identification.regressors import instruments, rows
+
+from .data import State, regression_rows
+
+FLUX_NODES = ((0.5 - 0.5 * 0.6 ** 0.5, 0.5, 0.5 + 0.5 * 0.6 ** 0.5), (5 / 18, 8 / 18, 5 / 18))   # Gauss-Legendre
+INTERVAL_NODES = tuple(0.5 * (np.polynomial.legendre.leggauss(8)[0] + 1.0)), \
+    tuple(0.5 * np.polynomial.legendre.leggauss(8)[1])   # on [0, 1], for the terms along an electrical interval
+INSTRUMENT_LAG = 2   # rows: an electrical row's error holds the noise of samples k-1 and k; these hold k-3, k-2
+
+
+def nominal_names(data):
+    """The nominal parameters of these data's regressions, in the order of physical.coefficients."""
+    return MODEL_PARAMETERS['mechanical'] if data.kinds == ('force',) else PARAMETER_NAMES
+
+
+class Rows:
+    """Regression `kind` of `data` linearised about `model` ({name: value}): `phi` and `y` as regressors.rows
+    gives them, `nominal` = phi J (the columns of dq), `target` = y - phi g(q0), the candidates' `columns`."""
+
+    def __init__(self, data, kind, model):
+        ts = data.sample_period
+        self.data, self.kind, self.names = data, kind, nominal_names(data)
+        q0 = np.array([model[name] for name in self.names], dtype=float)
+        self.phi, self.y = rows(kind, data.signals, ts)
+        self.coefficients, self.jacobian = jacobian(kind, q0, ts)
+        self.prediction = self.phi @ self.coefficients
+        self.index = regression_rows(data)
+        if kind == 'force':   # the acceleration per unit force is -1/m over both intervals
+            self.voltage_gains, self.load_gains = np.zeros(2), np.full(2, -0.5 / q0[0])
+            self.voltage_slopes = np.zeros((2, len(q0)))
+            self.load_slopes = np.zeros((2, len(q0)))
+            self.load_slopes[:, 0] = 0.5 / q0[0] ** 2
+        else:
+            self.voltage_gains, self.load_gains, self.voltage_slopes, self.load_slopes = gains_jacobian(kind, q0, ts)
+
+    @functools.cached_property
+    def nominal(self):
+        return self.phi @ self.jacobian
+
+    @property
+    def target(self):
+        return self.y - self.prediction
+
+    def scale(self):
+        """Row residual -> physical units: (factor, quantity): the voltage (V) of an electrical row, the force (N)
+        of a mechanical one (the inverse of the input's total gain)."""
+        if self.kind == 'electrical':
+            return 1.0 / float(self.voltage_gains[0]), 'voltage'
+        return 1.0 / abs(float(np.sum(self.load_gains))), 'force'
+
+    def instruments(self, candidates):
+        """The electrical rows' instruments laid out like [nominal | columns]: the regressors' instruments
+        (regressors.instruments) through J, the candidate columns INSTRUMENT_LAG rows earlier."""
+        zeta = instruments(self.kind, self.data.signals, self.data.sample_period) @ self.jacobian
+        extra = self.columns(candidates)
+        lagged = np.vstack((np.repeat(extra[:1], INSTRUMENT_LAG, axis=0), extra[:len(extra) - INSTRUMENT_LAG]))
+        return np.column_stack((zeta, lagged))
+
+    def columns(self, candidates, rows=slice(None), current=None):
+        """(n, sum of the candidates' parameters) columns at regression rows `rows`; `current`: the electrical
+        rows' start currents to use instead of the measured ones (a prediction)."""
+        blocks = [np.zeros((len(self.y[rows]), 0))]
+        for voltage, load, flux in self._terms(candidates, rows, current):
+            block = np.tensordot(self._weights(self.load_gains), load, 1) \
+                - np.tensordot(self._weights(self.voltage_gains), voltage, 1)
+            if flux is not None:
+                block = block - np.tensordot(self.voltage_gains, flux, 1)
+            blocks.append(block)
+        return np.hstack(blocks)
+
+    def slopes(self, candidates, added):
+        """(n, nominal parameters): d/dq of the candidates' terms with parameters `added` (their columns depend on
+        the model through the input gains): the cross terms of the Gauss-Newton step about (q0, added)."""
+        out = np.zeros((len(self.y), len(self.names)))
+        start = 0
+        for voltage, load, flux in self._terms(candidates, slice(None), None):
+            p = added[start:start + voltage.shape[-1]]
+            start += len(p)
+            for j in range(len(voltage)):
+                out += np.outer(load[j] @ p, self._weights(self.load_slopes)[j]) \
+                    - np.outer(voltage[j] @ p, self._weights(self.voltage_slopes)[j])
+            for j in range(0 if flux is None else len(flux)):
+                out -= np.outer(flux[j] @ p, self.voltage_slopes[j])
+        return out
+
+    def _terms(self, candidates, rows, current):
+        """Per candidate: (voltage terms, load-force terms) at each piece of the row (pieces x n x parameters, zero
+        where it has none), and the mean over each interval of the voltage its extra inductance takes,
+        (intervals x n x parameters, or None)."""
+        pieces = self._electrical(rows, current) if self.kind == 'electrical' else self._samples(rows)
+        out = []
+        for c in candidates:
+            shape = (len(pieces), len(pieces[0].index), len(c.parameters))
+            voltage, load = np.zeros(shape), np.zeros(shape)
+            for j, state in enumerate(pieces):
+                e, f = c.voltage(state), c.force(state)
+                if e is not None:
+                    voltage[j] = e.T
+                if f is not None:
+                    load[j] = f.T
+            out.append((voltage, load, self._flux(c, rows, current) if self.kind != 'force' else None))
+        return out
+
+    def _flux(self, candidate, rows, current):
+        """The voltage an extra inductance l(I, x) takes, averaged over each interval the row spans (intervals x n
+        x parameters), or None: exactly the change of its flux linkage over the interval over Ts, the integral of
+        l dI between the interval's end currents (Gauss-Legendre, FLUX_NODES), however far l moves the
+        inductance (a saturating iron halves it) and however fast the current changes within the interval."""
+        ts = self.data.sample_period
+        k = self.index[rows]
+        x, i = self.data.signals['position'], self.data.signals['current']
+        if self.kind == 'electrical':   # the interval [t_k-1, t_k]; in a prediction, its end is the model's step
+            start = self.phi[rows, 0] if current is None else current
+            end = self.y[rows] if current is None else self._step(rows, start)
+            ends = [(k - 1, start, end)]
+        else:
+            ends = [(k - 1, i[k - 1], i[k]), (k, i[k], i[k + 1])]
+        out = []
+        for j, first, last in ends:
+            total = 0.0
+            for node, weight in zip(*FLUX_NODES):
+                state = State(self.data, j, position=0.5 * (x[j] + x[j + 1]), velocity=(x[j + 1] - x[j]) / ts,
+                              current=first + node * (last - first))
+                inductance = candidate.inductance(state)
+                if inductance is None:
+                    return None
+                total = total + weight * inductance.T
+            out.append(total * ((last - first) / ts)[:, None])
+        return np.stack(out)
+
+    def _step(self, rows, start):
+        """The model's I_k from I_k-1 = `start` (and the rows' other regressors)."""
+        return start * self.coefficients[0] + self.phi[rows, 1:] @ self.coefficients[1:]
+
+    def _weights(self, gains):
+        """Each piece's weight from the intervals' gains (along the first axis): the electrical row's one interval;
+        the mechanical rows' samples k-1, k, k+1 (module doc)."""
+        if self.kind == 'electrical':
+            return np.multiply.outer(INTERVAL_NODES[1], gains[0])
+        return np.stack((gains[0] / 3.0, 2.0 * (gains[0] + gains[1]) / 3.0, gains[1] / 3.0))
+
+    def _electrical(self, rows, current):
+        """[the states along the interval [t_k-1, t_k] at the INTERVAL_NODES]: the mean position, the velocity of
+        the displacement, the current from its start to its end (the measured one; in a prediction, the model's
+        step), so that a term steep in the current (a dead-time drop reversing within a few mA) is averaged over
+        the interval rather than taken at its mean current."""
+        x = self.data.signals['position']
+        k = self.index[rows]
+        start = self.phi[rows, 0] if current is None else current
+        end = self.y[rows] if current is None else self._step(rows, start)
+        return [State(self.data, k - 1, position=0.5 * (x[k - 1] + x[k]), velocity=self.phi[rows, 2],
+                      current=start + node * (end - start), voltage=self.phi[rows, 1])
+                for node in INTERVAL_NODES[0]]
+
+    @functools.cached_property
+    def _measured(self):
+        return self.data.state()
+
+    def _samples(self, rows):
+        """[the measured state at sample k + d for d = -1, 0, 1]."""
+        measured = self._measured
+        k = self.index[rows]
+        return [State(self.data, k + d, position=measured.position[k + d], velocity=measured.velocity[k + d],
+                      **{name: values[k + d] for name, values in self.data.signals.items() if name != 'position'})
+                for d in (-1, 0, 1)]
