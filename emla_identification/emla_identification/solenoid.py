@@ -63,6 +63,7 @@ GAP_GRID = 40         # values of g0 (geometric, from just above the stroke to 2
 STOP_STEPS = 3        # position steps (the quantisation) within which the armature's path counts as on a stop
 STOP_SHARE = 0.01     # of the stroke: the least clearance from a stop of a force-balance row's path
 RELIABLE = 0.1        # of the current's noise: the largest error a sample's predicted current may take from the path
+HINT_SAMPLES = 50000  # samples a moving coil's misfit record is tried as a solenoid on
 PASSES = 3            # electrical and mechanical fits in turn (the first on a spline path between the samples)
 
 
@@ -152,9 +153,12 @@ def identify_solenoid(data: Recording | Path | str | None = None, *, sample_peri
 
 def solenoid_hint(recording: Recording) -> str | None:
     """For a record the moving coil does not fit: a warning line that the solenoid model fits it (both of its
-    equations within their noise floors) and how to ask for it; None when it does not (or cannot be fitted)."""
+    equations within their noise floors, on its first HINT_SAMPLES samples) and how to ask for it; None when it
+    does not (or cannot be fitted)."""
+    first = {name: np.asarray(values)[:HINT_SAMPLES] for name, values in recording.signals.items()
+             if name in ('voltage', 'current', 'position')}
     try:
-        result = identify_solenoid(recording)
+        result = identify_solenoid(sample_period=recording.sample_period, **first)
     except InputError:
         return None
     if result.warnings():
