@@ -173,14 +173,14 @@ def _identify(u, i, x, ts, source):
     substeps = 2 * max(1, math.ceil(ts / SUBSTEP / 2))
     stopped = on_stop(x)
     electrical = _start(u, i, x, ts)
-    keep, mechanical = None, None   # the first pass: every sample, the armature's path a spline through them
+    mechanical = None   # the first pass: the armature's path a spline through the samples
     for _ in range(PASSES):
-        nodes = _nodes(u, i, x, stopped, electrical, mechanical, ts, substeps)
-        if keep is None:
-            keep = np.ones(len(u), bool)
-            keep[:_settling(electrical, x, ts, len(u))] = False
+        nodes, error = _nodes(u, i, x, stopped, electrical, mechanical, ts, substeps)
+        keep = np.ones(len(u), bool)
+        keep[:_settling(electrical, x, ts, len(u))] = False
+        if mechanical is None:
             electrical = _electrical(u, i, nodes, electrical, ts, substeps, keep, x, source)[0]
-            keep &= _reliable(i, x, stopped, electrical, ts)
+        keep &= _reliable(i, x, stopped, error, electrical, ts)
         electrical, jacobian, e_residual = _electrical(u, i, nodes, electrical, ts, substeps, keep, x, source)
         rows = free_rows(x, stopped, nodes)
         if rows.size < MIN_FREE_ROWS:
@@ -231,13 +231,9 @@ def _settling(electrical, x, ts, n):
     return min(n // 4, int(SETTLE * (l0 + a / (g0 - x.min())) / r / ts))
 
 
-def _reliable(i, x, stopped, electrical, ts):
-    """The samples whose predicted current no fast stretch of the armature's path spoils: the current error that
-    the spline's error between the samples (5/384 of the fourth difference of position; on an interval in which
-    the armature meets or leaves a stop, the whole step) would cause, R I L'(x) dx Ts / L(x)^2, carried forward
-    with the coil's decay exp(-R Ts / L(x)), below RELIABLE of the current's noise (from its second difference
-    on the stops, at least 1e-6 of the current's RMS)."""
-    r, l0, a, g0 = electrical
+def _spline_error(x, stopped):
+    """The spline path's possible error per interval (m): 5/384 of the fourth difference of position about it;
+    on an interval in which the armature meets or leaves a stop, the whole step."""
     quartic = np.abs(np.diff(x, 4))
     spline = np.zeros(len(x) - 1)
     spline[1:1 + quartic.size] = quartic
@@ -245,6 +241,15 @@ def _reliable(i, x, stopped, electrical, ts):
     error = 5.0 / 384.0 * spline
     meets = stopped[:-1] != stopped[1:]
     error[meets] = np.abs(np.diff(x))[meets]
+    return error
+
+
+def _reliable(i, x, stopped, error, electrical, ts):
+    """The samples whose predicted current the path's possible error per interval (`error`, m) does not spoil:
+    the current error it would cause, R I L'(x) dx Ts / L(x)^2, carried forward with the coil's decay
+    exp(-R Ts / L(x)), below RELIABLE of the current's noise (from its second difference on the stops, at least
+    1e-6 of the current's RMS)."""
+    r, l0, a, g0 = electrical
     inductances = inductance(x[:-1], l0, a, g0)
     kick = r * np.abs(i[:-1]) * inductance_slope(x[:-1], a, g0) * error * ts / inductances ** 2
     carried = _carried(kick, np.exp(-r * ts / inductances))
@@ -333,9 +338,11 @@ def _paths(u, i0, x, stopped, p, ts, substeps):
     n = x.size
     current = np.empty((n - 1, substeps + 1))
     position = np.empty((n - 1, substeps + 1))
+    error = np.zeros(n - 1)
     h = ts / substeps
     i, v_end = i0, (x[1] - x[0]) / ts
     for k in range(n - 1):
+        v_before = v_end
         if stopped[k]:
             v = 0.0
         elif stopped[k + 1]:
@@ -353,18 +360,23 @@ def _paths(u, i0, x, stopped, p, ts, substeps):
                     slope = (again - miss) / nudge
                 v -= miss / slope
         i, x_end, v_end = _interval(i, x[k], v, u[k], p, h, substeps, current[k], position[k])
+        jump = 0.5 * ts * abs(v - v_before) if k > 0 and not stopped[k] else 0.0
+        error[k] = max(error[k], jump) + abs(x_end - x[k + 1])
+        if k > 0:
+            error[k - 1] = max(error[k - 1], jump)
         if k + 1 < n - 1:   # the flux linkage L(x) I carries over to the measured position
             i *= inductance(x_end, p[1], p[2], p[3]) / inductance(x[k + 1], p[1], p[2], p[3])
-    return current, position
+    return current, position, error
 
 
 def _nodes(u, i, x, stopped, electrical, mechanical, ts, substeps):
     """The armature's positions at the half sub-steps of each interval, (n - 1, 2 substeps + 1): along the spline
     (mechanical None, the first pass), else along the paths the parameters give (`_paths`)."""
     if mechanical is None:
-        return _spline_nodes(x, stopped, substeps)
+        return _spline_nodes(x, stopped, substeps), _spline_error(x, stopped)
     kernel = np.concatenate((electrical, mechanical, (x.min(), x.max())))
-    return _paths(u, float(i[0]), x, stopped, kernel, ts, 2 * substeps)[1]
+    _, nodes, error = _paths(u, float(i[0]), x, stopped, kernel, ts, 2 * substeps)
+    return nodes, error
 
 
 def _simulated(u, i, nodes, electrical, ts, substeps):
