@@ -11,11 +11,11 @@ any L/R against the sample period. The start comes from the flux-form equation
 by least squares over a grid of g0 (linear in R, L0, a for a fixed g0).
 
 The path between the samples matters at 1 kHz, where the armature crosses its stroke in four samples and stops
-dead: the first pass takes a cubic spline through each run of samples off the stops (`_spline_nodes`), and uses
-only the samples whose predicted current the spline's possible error spoils by less than RELIABLE of the
-current's noise (`_reliable`); the later passes take the path the identified model gives between each pair of
-measured positions (`_paths`: the solenoid's own equations with its end stops, started at the velocity that
-reaches the next measured position), PASSES passes in all.
+dead: the first pass takes a cubic spline through each run of samples off the stops (`_spline_nodes`), the later
+passes the path the identified model gives between each pair of measured positions (`_paths`: the solenoid's own
+equations with its end stops, started at the velocity that reaches the next measured position), PASSES passes in
+all; each fits only the samples whose predicted current its path's possible error spoils by less than RELIABLE
+of the current's noise (`_reliable`).
 
 Mechanical, equation error on the rows over which the armature keeps off the stops (`free_rows`). The second
 difference of position is the triangle-weighted mean of the acceleration over [t_k-1, t_k+1] (exactly), so with
@@ -330,11 +330,13 @@ def _interval(i, x, v, u, p, h, substeps, current, position):
 
 @numba.njit(cache=True)
 def _paths(u, i0, x, stopped, p, ts, substeps):
-    """The current and position at the sub-step boundaries of each interval, (n - 1, substeps + 1) each: the
-    solenoid of p (KERNEL_SLOTS; the stops at the record's extreme positions) driven by the held voltage, the
-    current carried over from interval to interval (its flux linkage continuous), the armature started on each
-    interval from the measured position: at rest on a stop, else at the velocity that brings it to the next
-    measured position (found by the secant method), or, arriving at a stop, at the velocity it had."""
+    """The current and position at the sub-step boundaries of each interval, (n - 1, substeps + 1) each, and the
+    path's possible error per interval (m): the solenoid of p (KERNEL_SLOTS; the stops at the record's extreme
+    positions) driven by the held voltage, the current carried over from interval to interval (its flux linkage
+    continuous), the armature started on each interval from the measured position: at rest on a stop, else at
+    the velocity that brings it to the next measured position (found by the secant method), or, arriving at a
+    stop, at the velocity it had. The error: half a sample times the velocity's jump at either end of the
+    interval, plus the miss of the next measured position."""
     n = x.size
     current = np.empty((n - 1, substeps + 1))
     position = np.empty((n - 1, substeps + 1))
@@ -370,8 +372,9 @@ def _paths(u, i0, x, stopped, p, ts, substeps):
 
 
 def _nodes(u, i, x, stopped, electrical, mechanical, ts, substeps):
-    """The armature's positions at the half sub-steps of each interval, (n - 1, 2 substeps + 1): along the spline
-    (mechanical None, the first pass), else along the paths the parameters give (`_paths`)."""
+    """(The armature's positions at the half sub-steps of each interval, (n - 1, 2 substeps + 1), their possible
+    error per interval in m): along the spline (mechanical None, the first pass), else along the paths the
+    parameters give (`_paths`)."""
     if mechanical is None:
         return _spline_nodes(x, stopped, substeps), _spline_error(x, stopped)
     kernel = np.concatenate((electrical, mechanical, (x.min(), x.max())))
