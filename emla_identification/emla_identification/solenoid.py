@@ -22,9 +22,9 @@ difference of position is the triangle-weighted mean of the acceleration over [t
 the same weighting of every force:
     (x_k+1 - 2 x_k + x_k-1) / Ts^2 = (F_k - B v_k - k xbar_k - F0) / m
 F_k: the weighted mean of I^2 L'(x) / 2 along the path, from the electrical model's current between the samples
-(Simpson's rule on the sub-steps; it carries no current noise), v_k the weighted mean velocity from five positions
-(exact for a quartic motion), xbar_k = (x_k-1 + 10 x_k + x_k+1) / 12 (exact for a cubic). The noisy second
-difference is the regression's output, so its noise does not bias the fit.
+(Simpson's rule on the sub-steps; it carries no current noise), v_k and xbar_k the weighted mean velocity and
+position along the path (a five-point formula, exact only for a quartic motion, left B 0.3 % high at 1 kHz). The
+noisy second difference is the regression's output, so its noise does not bias the fit.
 
 Uncertainties: the electrical fit's from its residuals (a sandwich estimator over ELECTRICAL_LAGS samples), the
 mechanical fit's from white position noise passed through the rows' stencils (its level from the residual), and
@@ -424,18 +424,17 @@ def free_rows(x, stopped, nodes):
     return np.flatnonzero(window) + 2
 
 
-def _force_means(current, position, electrical, rows):
-    """The triangle-weighted mean over [t_k-1, t_k+1] of the coil force I^2 L'(x) / 2 at each row, from the
-    current and position at the sub-step boundaries, by Simpson's rule (the weight's kink falls on t_k)."""
-    _, _, a, g0 = electrical
-    substeps = current.shape[1] - 1
-    force = 0.5 * current ** 2 * inductance_slope(position, a, g0)   # (n - 1, substeps + 1)
-    s = np.arange(substeps + 1) / substeps
-    simpson = np.ones(substeps + 1)
+def _triangle_means(values, rows):
+    """(The triangle-weighted mean over [t_k-1, t_k+1], the mean over [t_k, t_k+1] less that over [t_k-1, t_k]) at
+    each row of `values` given at the (even number of) sub-step boundaries of each interval, by Simpson's rule
+    (the weight's kink falls on t_k)."""
+    panels = values.shape[1] - 1
+    s = np.arange(panels + 1) / panels
+    simpson = np.ones(panels + 1)
     simpson[1:-1:2], simpson[2:-1:2] = 4.0, 2.0
-    simpson /= 3.0 * substeps
-    rising, falling = simpson * s, simpson * (1.0 - s)   # weights of the interval before t_k and after
-    return force[rows - 1] @ rising + force[rows] @ falling
+    simpson /= 3.0 * panels
+    before, after = values[rows - 1], values[rows]
+    return before @ (simpson * s) + after @ (simpson * (1.0 - s)), after @ simpson - before @ simpson
 
 
 def _mechanics(u, i, x, nodes, electrical, ts, substeps, rows):
@@ -446,17 +445,17 @@ def _mechanics(u, i, x, nodes, electrical, ts, substeps, rows):
     but at the ends of each run of rows)."""
     current = _simulated(u, i, nodes, electrical, ts, substeps)[1]
     position = nodes[:, ::2]
-    force = _force_means(current, position, electrical, rows)
+    force = _triangle_means(0.5 * current ** 2 * inductance_slope(position, *electrical[2:]), rows)[0]
     acceleration = (x[rows + 1] - 2.0 * x[rows] + x[rows - 1]) / ts ** 2
-    velocity = (7.0 / 12.0 * (x[rows + 1] - x[rows - 1]) - (x[rows + 2] - x[rows - 2]) / 24.0) / ts
-    mean_position = (x[rows - 1] + 10.0 * x[rows] + x[rows + 1]) / 12.0
+    mean_position, rise = _triangle_means(nodes, rows)
+    velocity = rise / ts
     phi = np.column_stack((force, velocity, mean_position, np.ones(rows.size)))
     theta, *_ = np.linalg.lstsq(phi, acceleration, rcond=None)
     residual = acceleration - phi @ theta
     mass = 1.0 / theta[0]
     values = np.array([mass, -theta[1] * mass, -theta[2] * mass, -theta[3] * mass])
     # how position noise q_k-2..q_k+2 enters a row's residual: the second difference less the fitted velocity's
-    # and mean position's shares
+    # and mean position's shares (those of the five-point formulas for the path's means, which pass the samples)
     stencil = (np.array([0.0, 1.0, -2.0, 1.0, 0.0]) / ts ** 2 - theta[1] * np.array([1, -14, 0, 14, -1]) / (24 * ts)
                - theta[2] * np.array([0.0, 1.0, 10.0, 1.0, 0.0]) / 12.0)
     spread = np.zeros((len(x), 4))   # W: the rows' regressors carried to the samples whose noise they meet
