@@ -2,6 +2,7 @@
 
 Entry points (each takes a Recording, a CSV file or bag path, or numpy arrays, unless noted):
     identify(data)            R, L, Km, m, B, Fl with one-sigma uncertainties from a whole record (grey box)
+    identify_solenoid(data)   a solenoid's R, L0, a, g0, m, B, k, F0 with one-sigma uncertainties (offline)
     OnlineIdentifier          the same, frame by frame, with forgetting (the identifier node, adaptive control)
     identify_chunks(parts)    a record too long for memory, part by part (e.g. emla_core.bag.iter_chunks)
     identify_arx(u, y, ...)   a black-box ARX model by recursive least squares (arrays)
@@ -21,6 +22,7 @@ from emla_core.exports import lazy_exports
 
 _EXPORTS = {  # name -> the module that holds it
     'identify': 'greybox', 'GreyBoxResult': 'greybox',
+    'identify_solenoid': 'solenoid', 'SolenoidResult': 'solenoid',
     'OnlineIdentifier': 'online',
     'identify_chunks': 'streaming',
     'identify_arx': 'arx', 'ArxModel': 'arx', 'ArxEstimator': 'arx',
