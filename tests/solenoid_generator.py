@@ -10,7 +10,9 @@ integrated) until the net force pulls it off. Each zero-order-hold interval of t
 scipy's solve_ivp (DOP853, rtol 1e-11) with terminal events at the stops and at the release, so no step crosses a
 mode change. The voltage: levels R I_target held 3-15 ms, I_target uniform in one of three bands drawn at random
 (the armature floating, pulled shut, released). The samples at t_k = k Ts: the current plus Gaussian noise, then
-quantised by the ADC's step; the position quantised; the voltage held over [t_k, t_k+1).
+quantised by the ADC's step; the position quantised; the voltage held over [t_k, t_k+1). A coil that warms
+(`resistance_rise`): R rises linearly from its value at t = 0 by that fraction over the record, held over each
+interval at its value at the interval's middle (the voltage levels still ask for currents at the cold R).
 
     rec, truth = record(rate=1000.0, seed=3)     # truth: {name: value} of the parameters
 """
@@ -95,8 +97,9 @@ def voltage(duration, rate, rng, resistance):
 
 
 def record(duration=2.0, rate=1000.0, seed=0, params=None, current_noise=5e-3, current_step=10.0 / 2048,
-           resolution=1e-6):
-    """(Recording of t, voltage, current, position; the true parameters) of the solenoid of `params` (TRUTH)."""
+           resolution=1e-6, resistance_rise=0.0):
+    """(Recording of t, voltage, current, position; the true parameters) of the solenoid of `params` (TRUTH),
+    its R rising by the fraction `resistance_rise` over the record (the parameters hold R at t = 0)."""
     p = dict(TRUTH, **(params or {}))
     rng = np.random.default_rng(seed)
     ts = 1.0 / rate
@@ -105,7 +108,8 @@ def record(duration=2.0, rate=1000.0, seed=0, params=None, current_noise=5e-3, c
     psi, x, state = np.empty(n), np.empty(n), (0.0, STOPS[0], 0.0, True)
     for k in range(n):
         psi[k], x[k] = state[0], state[1]
-        state = _interval(state, u[k], ts, p)
+        rise = 1.0 + resistance_rise * (k + 0.5) / n
+        state = _interval(state, u[k], ts, dict(p, resistance=p['resistance'] * rise) if resistance_rise else p)
     current = psi / (p['leakage_inductance'] + p['gap_coefficient'] / (p['gap'] - x))
     current = current + current_noise * rng.standard_normal(n)
     if current_step:

@@ -45,7 +45,13 @@ from scipy.optimize import least_squares
 
 from emla_core.data import as_recording
 from emla_core.errors import InputError
-from emla_core.physics.solenoid import SOLENOID_PARAMETER_NAMES, inductance, inductance_slope, solenoid_step
+from emla_core.physics.solenoid import (
+    SOLENOID_PARAMETER_NAMES,
+    SolenoidParameters,
+    inductance,
+    inductance_slope,
+    solenoid_step,
+)
 from emla_core.recording import Recording
 
 from .fit_check import equation_fit
@@ -70,7 +76,8 @@ PASSES = 3            # electrical and mechanical fits in turn (the first on a s
 @dataclass
 class SolenoidResult:
     """The identified solenoid: `parameters` and `std` ({name: value}, SI), `covariance` (their order), `samples`,
-    `sample_period`, `fit` ({equation: fit_check.EquationFit}) and `free_rows` (force-balance rows used)."""
+    `sample_period`, `fit` ({equation: fit_check.EquationFit}), `free_rows` (force-balance rows used) and `stroke`
+    (the record's least and greatest positions, taken as the end stops, m)."""
 
     parameters: dict
     std: dict
@@ -78,6 +85,7 @@ class SolenoidResult:
     samples: int
     sample_period: float
     free_rows: int
+    stroke: tuple
     fit: dict = field(repr=False, default_factory=dict)
     model: str = 'solenoid'
 
@@ -97,7 +105,12 @@ class SolenoidResult:
         """The `emla identify --actuator solenoid` JSON object."""
         return {'model': self.model, 'samples': self.samples, 'sample_period': self.sample_period,
                 'parameters': dict(self.parameters), 'std': dict(self.std), 'free_rows': self.free_rows,
+                'stroke': {'stroke_min': self.stroke[0], 'stroke_max': self.stroke[1]},
                 'fit': {name: f.to_dict() for name, f in self.fit.items()}, 'unresolved': self.unresolved()}
+
+    def solenoid(self) -> SolenoidParameters:
+        """The identified solenoid as SolenoidParameters, its end stops the record's (`stroke`)."""
+        return SolenoidParameters(**self.parameters, stroke_min=self.stroke[0], stroke_max=self.stroke[1])
 
 
 def identify_solenoid(data: Recording | Path | str | None = None, *, sample_period: float | None = None,
@@ -206,7 +219,8 @@ def _identify(u, i, x, ts, source):
     fit = _fit(u, i, x, ts, np.flatnonzero(keep), e_residual, jacobian, electrical, m_residual, phi, rows, stencil)
     return SolenoidResult(parameters=dict(zip(SOLENOID_PARAMETER_NAMES, map(float, values))),
                           std=dict(zip(SOLENOID_PARAMETER_NAMES, map(float, std))), covariance=covariance,
-                          samples=len(u), sample_period=ts, free_rows=int(rows.size), fit=fit)
+                          samples=len(u), sample_period=ts, free_rows=int(rows.size),
+                          stroke=(float(x.min()), float(x.max())), fit=fit)
 
 
 def _electrical(u, i, nodes, start, ts, substeps, keep, x, source):
