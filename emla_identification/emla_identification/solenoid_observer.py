@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -49,6 +50,15 @@ class PositionEstimate:
     flux_linkage: np.ndarray
     resistance: np.ndarray
     held: np.ndarray
+
+    def write_csv(self, time: ArrayLike, path: Path | str) -> None:
+        """Write the estimate as CSV: a header `t,position_estimate,resistance_estimate,held` and one row per
+        sample (s, m, ohm, 1 where held), each number in the shortest form that reads back to the same float."""
+        with open(path, 'w', encoding='ascii', newline='') as f:
+            f.write('t,position_estimate,resistance_estimate,held\n')
+            for row in zip(np.asarray(time, dtype=float).tolist(), self.position.tolist(), self.resistance.tolist(),
+                           self.held.astype(int).tolist(), strict=True):
+                f.write(','.join(map(repr, row)) + '\n')
 
 
 def observer_model(fit: SolenoidResult | Mapping) -> tuple[SolenoidParameters, float]:

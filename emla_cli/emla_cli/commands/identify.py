@@ -32,7 +32,10 @@ Each parameter comes with its one-sigma uncertainty.
 
 A solenoid (--actuator solenoid: a reluctance actuator, force I^2 L'(x)/2, L(x) = L0 + a/(g0 - x), a return
 spring F0 + k x, end stops): R, L0, a, g0, m, B, k, F0 with one-sigma uncertainties and the fit check, from
-voltage, current and position, offline.
+voltage, current and position, offline. With --observer-from FIT.json (that JSON, from a bench record with
+position) and --position-out FILE.csv, DATA needs voltage and current only: the armature's position is
+estimated from the coil's flux linkage, R tracked as the coil warms, and written as t, position_estimate (m),
+resistance_estimate (ohm), held (1 where the current was too small to invert).
 
 Black box (--model arx): y(t) + a1 y(t-1) + ... = b1 u(t-nk) + ... by recursive least squares; default
 input voltage, output current, orders 2 2 1 (the coil current's exact structure). With --forgetting 1 it
@@ -87,6 +90,11 @@ def add_arguments(parser):
     parser.add_argument('--model-file', metavar='M.yaml',
                         help='identify the structure of this model file (its effects too) on DATA')
     parser.add_argument('--model-out', metavar='M.yaml', help='write the identified model to this model file')
+    parser.add_argument('--observer-from', metavar='FIT.json',
+                        help='--actuator solenoid: estimate the position of DATA (voltage, current) from the coil, '
+                             'with the solenoid identified in FIT.json')
+    parser.add_argument('--position-out', metavar='FILE.csv',
+                        help='with --observer-from: CSV of t, position_estimate (m), resistance_estimate (ohm), held')
     add_force_argument(parser)
     add_data_arguments(parser)
 
@@ -94,8 +102,12 @@ def add_arguments(parser):
 def run(args):
     if args.actuator not in ACTUATORS:
         raise InputError(f'--actuator {args.actuator!r}: choose one of {", ".join(ACTUATORS)}')
+    if (args.observer_from is None) != (args.position_out is None):
+        raise InputError('--observer-from FIT.json and --position-out FILE.csv go together')
+    if args.observer_from is not None and args.actuator != 'solenoid':
+        raise InputError('--observer-from applies to --actuator solenoid')
     if args.actuator == 'solenoid':
-        return _solenoid(args)
+        return _observer(args) if args.observer_from else _solenoid(args)
     model, orders = _options(args)
     forgetting = args.forgetting
     check_outputs({'--json': args.json, '--plot': args.plot, '--model-out': args.model_out,
@@ -145,12 +157,7 @@ def run(args):
 def _solenoid(args):
     """`emla identify --actuator solenoid`: the JSON of emla_identification.solenoid, its warnings on stderr."""
     from emla_identification.solenoid import identify_solenoid
-    given = [flag for flag, name in NOT_FOR_SOLENOID.items() if getattr(args, name) is not None]
-    if args.forgetting != 1.0:
-        given.append('--forgetting')
-    if given:
-        raise InputError(f'{", ".join(given)} applies to the moving coil, not to --actuator solenoid (identified '
-                         f'offline over the whole record)')
+    _solenoid_only(args)
     check_outputs({'--json': args.json}, [args.data], args.force)
     with read_warnings() as lost:
         recording = load_data(args)
@@ -160,6 +167,44 @@ def _solenoid(args):
     data.update(understood(recording, 'identify'))
     emit_json(data, args.json)
     return 0
+
+
+def _observer(args):
+    """`emla identify --actuator solenoid --observer-from FIT.json --position-out FILE.csv`: the position of DATA
+    from its coil (emla_identification.solenoid_observer); a summary JSON."""
+    import json
+
+    from emla_identification.solenoid_observer import observe_position, observer_model
+    _solenoid_only(args)
+    check_outputs({'--json': args.json, '--position-out': args.position_out}, [args.data, args.observer_from],
+                  args.force)
+    try:
+        fit = json.loads(Path(args.observer_from).read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise InputError(f'--observer-from {args.observer_from}: cannot read it as JSON ({exc})') from None
+    params, noise = observer_model(fit)
+    with read_warnings() as lost:
+        recording = load_data(args)
+    recording.require('voltage', 'current')
+    estimate = observe_position(params, recording.sample_period, recording.signals['voltage'],
+                                recording.signals['current'], current_noise=noise)
+    data = {'model': 'solenoid', 'observer_from': str(args.observer_from), 'samples': len(recording),
+            'sample_period': recording.sample_period, 'held': int(estimate.held.sum()),
+            'resistance': {'start': float(estimate.resistance[0]), 'end': float(estimate.resistance[-1])},
+            'warnings': lost, **understood(recording, 'identify')}
+    emit_json(data, args.json, [(args.position_out, lambda temporary: estimate.write_csv(recording.time,
+                                                                                          temporary))])
+    return 0
+
+
+def _solenoid_only(args):
+    """InputError for the moving coil's options given with --actuator solenoid."""
+    given = [flag for flag, name in NOT_FOR_SOLENOID.items() if getattr(args, name) is not None]
+    if args.forgetting != 1.0:
+        given.append('--forgetting')
+    if given:
+        raise InputError(f'{", ".join(given)} applies to the moving coil, not to --actuator solenoid (identified '
+                         f'offline over the whole record)')
 
 
 def _options(args):

@@ -1,0 +1,91 @@
+"""The sensorless position of a solenoid (emla_identification.solenoid_observer) on the independent generator
+(tests/solenoid_generator.py: 5 mA current noise, a 4.9 mA ADC step): L(x) identified on a bench record with
+position, the position then estimated on another record from its voltage and current alone while the coil's R
+rises 20 %, against the generator's position; bad input is one clear line."""
+import json
+
+import numpy as np
+import pytest
+from solenoid_generator import STOPS, record
+
+from emla_cli.cli import main
+from emla_core.errors import InputError
+from emla_core.recording import write_csv
+from emla_identification.solenoid import identify_solenoid
+from emla_identification.solenoid_observer import observe_position, observer_model
+
+RATE, SECONDS, RISE = 5000.0, 2.0, 0.2
+STROKE = STOPS[1] - STOPS[0]
+
+
+@pytest.fixture(scope='module')
+def bench():
+    recording, _ = record(duration=SECONDS, rate=RATE, seed=31)
+    return identify_solenoid(recording)
+
+
+def rms_error(bench, rise, smooth=True):
+    """(RMS position error over the stroke, the estimate, R at the record's end) on a record without position."""
+    recording, truth = record(duration=SECONDS, rate=RATE, seed=32, resistance_rise=rise)
+    params, noise = observer_model(bench)
+    estimate = observe_position(params, recording.sample_period, recording.signals['voltage'],
+                                recording.signals['current'], current_noise=noise, smooth=smooth)
+    error = estimate.position - recording.signals['position']
+    return np.sqrt(np.mean(error ** 2)) / STROKE, estimate, truth['resistance'] * (1 + rise)
+
+
+@pytest.mark.xfail(strict=True, reason="issue 24's 2 % of the stroke not reached: 2.5 % measured (29.6 um)")
+def test_the_position_within_two_percent_of_the_stroke_while_r_rises(bench):
+    assert rms_error(bench, RISE)[0] < 0.02
+
+
+def test_the_position_within_three_percent_and_r_followed_while_r_rises(bench):
+    share, estimate, final = rms_error(bench, RISE)
+    assert share < 0.03
+    assert estimate.resistance[-1] == pytest.approx(final, rel=2e-3)
+    assert estimate.held.mean() < 0.02
+
+
+def test_a_constant_r_gives_a_smaller_error(bench):
+    assert rms_error(bench, 0.0)[0] < rms_error(bench, RISE)[0]
+
+
+def test_bad_input_is_one_clear_error(bench):
+    params, noise = observer_model(bench)
+    with pytest.raises(InputError, match='one length'):
+        observe_position(params, 2e-4, np.ones(10), np.ones(9), current_noise=noise)
+    with pytest.raises(InputError, match='non-finite current at sample 3'):
+        observe_position(params, 2e-4, np.ones(10), np.r_[np.ones(3), np.nan, np.ones(6)], current_noise=noise)
+    fit = bench.to_dict()
+    del fit['stroke']
+    with pytest.raises(InputError, match='not a solenoid identification'):
+        observer_model(fit)
+
+
+def one_line_error(capsys, argv, words):
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and words in err[0] and 'Traceback' not in err[0], err
+
+
+def test_the_cli_writes_the_position_and_refuses_bad_input_in_one_line(bench, tmp_path, capsys):
+    recording, _ = record(duration=0.5, rate=RATE, seed=33, resistance_rise=RISE)
+    data, fit, out = tmp_path / 'valve.csv', tmp_path / 'fit.json', tmp_path / 'position.csv'
+    write_csv(recording, data, ['voltage', 'current'])
+    fit.write_text(json.dumps(bench.to_dict()))
+    assert main(['identify', str(data), '--actuator', 'solenoid', '--observer-from', str(fit),
+                 '--position-out', str(out)]) == 0
+    assert json.loads(capsys.readouterr().out)['samples'] == len(recording)
+    lines = out.read_text().splitlines()
+    assert lines[0] == 't,position_estimate,resistance_estimate,held' and len(lines) == len(recording) + 1
+    position = np.array([float(line.split(',')[1]) for line in lines[1:]])
+    assert np.all((position >= STOPS[0]) & (position <= STOPS[1]))
+    one_line_error(capsys, ['identify', str(data), '--actuator', 'solenoid', '--observer-from', str(data),
+                            '--position-out', str(tmp_path / 'x.csv')], 'cannot read it as JSON')
+    one_line_error(capsys, ['identify', str(data), '--observer-from', str(fit), '--position-out',
+                            str(tmp_path / 'x.csv')], '--actuator solenoid')
+    one_line_error(capsys, ['identify', str(data), '--actuator', 'solenoid', '--position-out',
+                            str(tmp_path / 'x.csv')], 'go together')
+    write_csv(recording, data, ['voltage'])
+    one_line_error(capsys, ['identify', str(data), '--actuator', 'solenoid', '--observer-from', str(fit),
+                            '--position-out', str(tmp_path / 'x.csv')], 'current')
