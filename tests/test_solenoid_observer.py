@@ -24,17 +24,18 @@ def bench():
     return identify_solenoid(recording)
 
 
-def rms_error(bench, rise, smooth=True):
+def rms_error(bench, rise):
     """(RMS position error over the stroke, the estimate, R at the record's end) on a record without position."""
     recording, truth = record(duration=SECONDS, rate=RATE, seed=32, resistance_rise=rise)
     params, noise = observer_model(bench)
     estimate = observe_position(params, recording.sample_period, recording.signals['voltage'],
-                                recording.signals['current'], current_noise=noise, smooth=smooth)
+                                recording.signals['current'], current_noise=noise)
     error = estimate.position - recording.signals['position']
     return np.sqrt(np.mean(error ** 2)) / STROKE, estimate, truth['resistance'] * (1 + rise)
 
 
-@pytest.mark.xfail(strict=True, reason="issue 24's 2 % of the stroke not reached: 2.5 % measured (29.6 um)")
+@pytest.mark.xfail(strict=True, reason="issue 24's 2 % of the stroke not reached: 2.2 % measured (26.8 um), "
+                                       "2.7-3.4 % on seeds 34-36")
 def test_the_position_within_two_percent_of_the_stroke_while_r_rises(bench):
     assert rms_error(bench, RISE)[0] < 0.02
 

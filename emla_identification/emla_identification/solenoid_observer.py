@@ -159,7 +159,7 @@ def _filter(p, ts, u, i, noise, tolerance, drift):
     state = np.array([p.inductance(low) * i[0], p.resistance, 0.0])   # at rest on the open stop at the start
     cov = np.diag([(p.inductance(low) * noise) ** 2, (START * p.resistance) ** 2, (drift * p.resistance) ** 2])
     walk = np.diag([0.0, 0.0, (drift * p.resistance) ** 2 * ts])
-    last, velocity, stop = low, 0.0, 0
+    last, velocity, resting_on = low, 0.0, 0
     for k in range(n):
         f = np.eye(3)
         if k:   # the flux over the held interval: the trapezoid of I, corrected for the jump of dI/dt at t_k-1
@@ -171,7 +171,7 @@ def _filter(p, ts, u, i, noise, tolerance, drift):
             cov[0, 0] += (state[1] * noise * ts) ** 2 / 2
         predicted[0][k], predicted[1][k], predicted[2][k] = state, cov, f
         raw = _inverted(p, state[0], i[k])
-        stop = _pressed(p, raw, i[k], margin, noise, stop)
+        stop = _pressed(p, raw, i[k], margin, noise, resting_on)
         if stop is not None:   # on a stop psi = L(stop) I, measured with the current's noise
             resting[k] = stop
             inductance = p.inductance((low, high)[stop])
@@ -180,6 +180,7 @@ def _filter(p, ts, u, i, noise, tolerance, drift):
             cov = cov - np.outer(gain, cov[0])
         x[k], velocity, held[k] = _place(p, raw, cov[0, 0], i[k], stop, last, velocity, ts, noise, tolerance)
         states[k], covs[k], last = state, cov, x[k]
+        resting_on = stop if stop is not None else 0 if last <= low else 1 if last >= high else None
     return states, covs, predicted, resting, x, held
 
 
@@ -196,12 +197,12 @@ def _smoothed(state, cov, predicted):
 
 def _place(p, raw, flux_variance, current, stop, last, velocity, ts, noise, tolerance):
     """(position, velocity, held) at one sample: the stop it rests on; else the inverted position `raw` within the
-    stroke, unless the current and the flux's variance leave it noisier than `tolerance` (m) or there is no
-    current: then the identified mechanics carried on from the last position and velocity (held)."""
+    stroke, unless the current and the flux's variance leave it noisier than `tolerance` (m) at the open stop (where
+    L(x) is flattest) or there is no current: then the identified mechanics carried on from the last position and
+    velocity (held)."""
     if stop is not None:
         return (p.stroke_min, p.stroke_max)[stop], 0.0, False
-    if raw is None or _spread(p, min(max(raw, p.stroke_min), p.stroke_max), current, noise,
-                              flux_variance) > tolerance:
+    if raw is None or _spread(p, p.stroke_min, current, noise, flux_variance) > tolerance:
         return *_coast(p, last, velocity, current, ts), True
     position = min(max(raw, p.stroke_min), p.stroke_max)
     if all(p.coil_force(x, current) < p.load(x) for x in (p.stroke_min, p.stroke_max)):
