@@ -171,8 +171,9 @@ def solenoid_hint(recording: Recording) -> str | None:
     first = {name: np.asarray(values)[:HINT_SAMPLES] for name, values in recording.signals.items()
              if name in ('voltage', 'current', 'position')}
     try:
-        result = identify_solenoid(sample_period=recording.sample_period, **first)
-    except InputError:
+        with np.errstate(all='ignore'):
+            result = identify_solenoid(sample_period=recording.sample_period, **first)
+    except (InputError, ValueError, ArithmeticError):   # (numpy's LinAlgError is a ValueError) no solenoid either
         return None
     if result.warnings():
         return None

@@ -131,9 +131,9 @@ def run(args):
             recording, parts = read_record(args.data, lambda path: load_data(args), plain=not foreign(args))
             result, plot, identified, trajectory, fit = _greybox(recording, parts, model,
                                                                  _memory(args, forgetting, recording), args)
-    found = [] if model == 'arx' else plausibility_warnings(result['parameters'], result['std'], recording)
-    found += [] if found else fit   # a slip the plausibility checks name is the root cause of any misfit
-    if fit and result.get('model') == 'full' and parts is None:   # another actuator family's record?
+    slips = [] if model == 'arx' else plausibility_warnings(result['parameters'], result['std'], recording)
+    found = slips or fit   # a slip the plausibility checks name is the root cause of any misfit
+    if fit and not slips and result.get('model') == 'full' and parts is None:   # another actuator family's record?
         from emla_identification.solenoid import solenoid_hint
         found += [hint for hint in (solenoid_hint(recording),) if hint]
     found += unknown_figures(result)

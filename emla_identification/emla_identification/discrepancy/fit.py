@@ -26,6 +26,7 @@ import numpy as np
 from scipy.signal import lfilter
 
 from emla_core.errors import InputError
+from emla_core.recording import Recording
 
 from .data import regression_rows
 from .rows import Rows, nominal_names
@@ -177,12 +178,13 @@ def _start(data):
     """The nominal parameters the first fit is linearised about: the grey-box identification's (exact rows,
     minimum distance from several starts, so the Gauss-Newton refits begin near the optimum)."""
     from emla_identification.greybox import identify  # here: greybox's fit check imports this package
-    signals = dict(data.signals)
     model = 'mechanical' if data.kinds == ('force',) else 'full'
     try:
-        result = identify(sample_period=data.sample_period, model=model, points=1, **signals)
+        result = identify(Recording(data.sample_period, dict(data.signals), source=data.source), model=model,
+                          points=1)
     except InputError as error:
-        raise InputError(f'{data.source}: the nominal model cannot be identified: {error}') from None
+        reason = str(error).removeprefix(f'{data.source}: ')
+        raise InputError(f'{data.source}: the nominal model cannot be identified: {reason}') from None
     return result.parameters
 
 
