@@ -163,25 +163,27 @@ def read(path: Path | str) -> Model:
                              _pairs(item.get('parameters'), path, f'{where}.parameters'), settings)
         if any(e.candidate == effect.candidate for e in effects):
             raise InputError(f'{path}: {where}: {effect.candidate} is given twice')
-        _check_effect(effect, path, where)
-        effects.append(effect)
+        effects.append(_check_effect(effect, path, where))
     provenance = document.get('provenance') or {}
     return Model(period, parameters, effects, provenance if isinstance(provenance, dict) else {})
 
 
 def _check_effect(effect, path, where):
-    """An effect of the physics layer checked against its parameters and settings (names, bounds); an effect the
-    layer does not know (a user's candidate, registered when it is used) is left to its user."""
+    """An effect of the physics layer checked against its parameters and settings (names, bounds), returned with
+    any parameter a file written before it existed left out at its default (no uncertainty); an effect the layer
+    does not know (a user's candidate, registered when it is used) is left to its user."""
     from emla_core.physics import CANDIDATES, EFFECTS
     candidate = CANDIDATES.get(effect.candidate)
     if candidate is None:
-        return
-    given, wanted = set(effect.parameters), set(candidate.parameters)
-    if given != wanted:
-        raise InputError(f'{path}: {where} ({effect.candidate}) has parameters {", ".join(sorted(given)) or "none"}; '
-                         f'it needs {", ".join(sorted(wanted)) or "none"}')
+        return effect
     spec = EFFECTS.get(effect.candidate)
     specs = spec.specs() if spec else {}
+    given, wanted = set(effect.parameters), set(candidate.parameters)
+    if not given <= wanted or not given or not all(name in specs for name in wanted - given):
+        raise InputError(f'{path}: {where} ({effect.candidate}) has parameters {", ".join(sorted(given)) or "none"}; '
+                         f'it needs {", ".join(sorted(wanted)) or "none"}')
+    effect = dataclasses.replace(effect, parameters={name: effect.parameters.get(name, (specs.get(name).default, None))
+                                                     for name in candidate.parameters})
     unknown = sorted(set(effect.settings) - set(candidate().settings()) - set(specs))
     if unknown:
         raise InputError(f'{path}: {where} ({effect.candidate}) has unknown setting(s) {", ".join(unknown)}')
@@ -193,6 +195,7 @@ def _check_effect(effect, path, where):
                 specs[name].checked(value, where)
             except ValueError as exc:
                 raise InputError(f'{path}: {exc}') from None
+    return effect
 
 
 def _number(value, path, where):

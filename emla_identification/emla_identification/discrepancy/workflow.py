@@ -24,9 +24,9 @@ is significant, which it is when
      scores below 0.2 %, the effects of physics.md at realistic strengths 39 % and more),
   3. its parameters are resolved: some parameter is at least MIN_T jackknife sigmas from zero (block
      jackknife, again robust to coloured residuals; a delay has no continuous parameter), and
-  4. they have the sign physics gives them (Candidate.signs: friction opposes motion, heating raises R,
-     saturation lowers L; a stiffness may have either sign): a wrong sign means the term is patching
-     some other misfit.
+  4. those it resolves (MIN_T sigmas from zero) have the sign physics gives them (Candidate.signs: friction
+     opposes motion, heating raises R, saturation lowers L; a stiffness may have either sign): a wrong sign
+     means the term is patching some other misfit.
 Fitting noise cannot pass 1 and 2 together: a term that only fits noise predicts held-out blocks worse.
 A significant candidate is named if it removes most (MOST) of the held-out one-step error, or if, added, it
 removes at least MIN_SHARE of the disagreement left (the low-band residual power above the noise floor, in floor
@@ -366,7 +366,9 @@ def assess(base, candidate):
     values, stds = result.added[part], result.added_std[part]
     parameters = best.reported(values, stds, result.parameters)
     resolved = not len(values) or bool(np.any(np.abs(values) >= MIN_T * stds))
-    plausible = all(sign * value >= 0 for sign, value in zip(candidate.signs, values))
+    # a sign physics forbids, on a parameter the data resolve (an unresolved one's sign is the noise's)
+    plausible = all(sign * value >= 0 or abs(value) < MIN_T * std for sign, value, std in
+                    zip(candidate.signs, values, stds))
     return Assessment(best.effect_name(values), result, float(sum(per_equation)),
                       dict(zip(kinds, map(float, per_equation))), int(np.sum(gain.sum(axis=1) > 0)),
                       parameters, best.settings(), resolved, plausible)
