@@ -141,13 +141,19 @@ def fit(data, candidates=(), reference=None, *, relinearise=True):
     """
     candidates = tuple(candidates)
     if reference is None:
-        start = _start(data)   # weighted by its residuals first, then by the fit's own
-        weights = {kind: _rms(target) for kind, (_, target, _) in design(data, start, ()).items()}
-        reference = _solve(data, (), start, _solve(data, (), start, weights).rms)
+        reference = nominal_fit(data)
         if not candidates:
             return reference
     result = _solve(data, candidates, reference.linearised_about, reference.sigma)
     return _refined(data, candidates, result) if relinearise else result
+
+
+def nominal_fit(data, start=None):
+    """The nominal model fitted to data, linearised about `start` ({name: value}; default: the grey-box
+    identification's estimate), weighted by its residuals there first, then by the fit's own."""
+    start = _start(data) if start is None else start
+    weights = {kind: _rms(target) for kind, (_, target, _) in design(data, start, ()).items()}
+    return _solve(data, (), start, _solve(data, (), start, weights).rms)
 
 
 def _refined(data, candidates, result):

@@ -55,10 +55,11 @@ from .adequacy import EQUATION, assess_adequacy
 from .candidates import library
 from .data import Data, regression_rows
 from .dependence import dependence, signals_of
-from .fit import FOLDS, Fit, design, fit, physical, with_systematic
+from .fit import FOLDS, Fit, design, fit, nominal_fit, physical, with_systematic
 from .predict import MECHANICAL_TIME, predict
 from .residuals import binned, cross_correlation, whiteness
 from .rows import nominal_names
+from .start import rescue_starts
 
 MIN_BLOCKS = 9
 MIN_SCORE = 0.05
@@ -293,13 +294,7 @@ def diagnose(data: Recording | Path | str | None = None, names: Sequence[str] | 
     data = Data.from_recording(recording)
     check_magnitudes(recording)
     with numerical_failures(data.source, 'the model cannot be diagnosed'):   # degenerate data show up as
-        nominal = fit(data)                                                   # non-finite or unphysical estimates
-        warnings = plausibility_warnings(_physical_only(nominal.parameters), nominal.std, recording)
-        if not physical(nominal.parameters):
-            found = (', '.join(f'{k} = {v:.4g}' for k, v in nominal.parameters.items())
-                     if all(np.isfinite(list(nominal.parameters.values()))) else 'no finite estimate')
-            raise InputError(f'{data.source}: the nominal model cannot be identified from these data: ' +
-                             ('; '.join(warnings) or f'{found}; does the recording excite the actuator?'))
+        nominal, warnings = _nominal(data, recording, names)                # non-finite or unphysical estimates
         adequacy = assess_adequacy(nominal)
         ranked = rank(nominal, library(data, names))
         diagnosis = Diagnosis(data, nominal, ranked, adequacy, predict(nominal), warnings=warnings)
@@ -320,6 +315,39 @@ def diagnose(data: Recording | Path | str | None = None, names: Sequence[str] | 
             named = {stage.assessment.fit.candidates[-1].name for stage in diagnosis.stages}
             left = rank(current, [c for c in library(data, names) if c.name not in named])
         return diagnosis
+
+
+def _nominal(data, recording, names):
+    """(the nominal Fit, its warnings). When the nominal model alone cannot be identified (no estimate, or an
+    impossible one), it is fitted about the start some effect gives (start.py) where one does: the best such fit
+    of the raw data, with a warning saying so; otherwise an InputError says why not."""
+    try:
+        nominal, failure = fit(data), None
+    except InputError as error:
+        nominal, failure = None, error
+    if nominal is not None and physical(nominal.parameters):
+        return nominal, plausibility_warnings(_physical_only(nominal.parameters), nominal.std, recording)
+    rescued = []   # (held-out residual sums of squares per equation, in its units; label, nominal fit)
+    for label, start, givers in rescue_starts(data, library(data, names)):
+        base = nominal_fit(data, start)
+        for giver in givers:   # a re-alignment as it is (its start came from it), another effect at its best
+            trial = fit(giver.realigned(data), (giver,), base) if giver.realigned(data) is not data else \
+                assess(base, giver).fit
+            errors = trial.heldout.sum(axis=0) * np.array([trial.sigma[kind] ** 2 for kind in data.kinds])
+            if np.all(np.isfinite(errors)) and physical(trial.parameters):
+                rescued.append((errors, label, base))
+    if rescued:   # the start whose model explains the raw data best, each equation's error against its least
+        least = np.min([errors for errors, *_ in rescued], axis=0)
+        _, label, best = min(rescued, key=lambda r: float(np.sum(r[0] / np.maximum(least, 1e-300))))
+        return best, [f'the nominal model alone cannot be identified from these data; it is fitted about the '
+                      f'estimate {label} gives']
+    if failure is not None:
+        raise failure
+    warnings = plausibility_warnings(_physical_only(nominal.parameters), nominal.std, recording)
+    found = (', '.join(f'{k} = {v:.4g}' for k, v in nominal.parameters.items())
+             if all(np.isfinite(list(nominal.parameters.values()))) else 'no finite estimate')
+    raise InputError(f'{data.source}: the nominal model cannot be identified from these data: ' +
+                     ('; '.join(warnings) or f'{found}; does the recording excite the actuator?'))
 
 
 def _physical_only(parameters):
