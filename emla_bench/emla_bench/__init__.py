@@ -3,8 +3,8 @@
     run_closed_loop(plant, controller, reference, duration, ...)   the in-process lockstep loop: plant,
                                       sensor, online identifier and controller
     run_scenario(name)                a named comparison (resistance_rise, mass_rise, thermal_drift,
-                                      friction_and_spring, default): tracking metrics of each case;
-                                      SCENARIOS holds them
+                                      friction_and_spring, default; a solenoid valve's valve_resistance_rise):
+                                      tracking metrics of each case; SCENARIOS holds them
     scenario_parameters(scenario)     a scenario as the ROS graph runs it: {node: {parameter: value}}
 
 Examples

@@ -85,7 +85,7 @@ def run_closed_loop(plant: Plant, controller: InverseSystemController,
     references = np.column_stack(reference(controller.midpoint_times(t0 + ts * np.arange(0, n, decimation))))
     for f, start in enumerate(frames):
         stop = min(start + frame_samples, n)
-        frame = _run_frame(plant, sensor.measure, controller.step, decimation, ts, stop - start,
+        frame = run_frame(plant, sensor.measure, controller.step, decimation, ts, stop - start,
                            iter(references[start // decimation:(stop + decimation - 1) // decimation].tolist()))
         for (store, name), values in zip(_FRAME_COLUMNS, frame):
             (signals if store == 'signals' else truth)[name][start:stop] = values
@@ -109,7 +109,7 @@ _FRAME_COLUMNS = (('truth', 'current'), ('truth', 'position'), ('truth', 'veloci
                   ('signals', 'current'), ('signals', 'position'), ('signals', 'voltage'))
 
 
-def _run_frame(plant, measure, control, decimation, ts, n, references):
+def run_frame(plant, measure, control, decimation, ts, n, references):
     """n samples of the lockstep with the controller's parameters fixed; lists in _FRAME_COLUMNS order.
 
     Plain lists and locals: this is the per-sample hot path (the law itself is compiled)."""

@@ -1,4 +1,5 @@
-"""The stroke reference: a smoothed square wave 0 -> stroke -> 0 every `period` (40 ms by default).
+"""The stroke reference: a smoothed square wave 0 -> stroke -> 0 every `period` (40 ms by default), about an
+`offset` (a valve's armature held between its stops: offset -> offset + stroke -> offset).
 
 Each move is the 7th-order smooth step p(tau) = 35 tau^4 - 84 tau^5 + 70 tau^6 - 20 tau^7 over
 `transition` seconds: its first three derivatives vanish at both ends, so s, s', s'' and s''' are continuous,
@@ -34,8 +35,11 @@ class StrokeReference:
     stroke: float = 4e-3  # m
     period: float = 0.04  # s, one out-and-back cycle
     transition: float = 8e-3  # s, duration of each move
+    offset: float = 0.0  # m, the position the cycle starts from and returns to
 
     def __post_init__(self):
+        if not math.isfinite(self.offset):
+            raise ValueError(f'StrokeReference.offset must be finite, got {self.offset!r}')
         for name in ('stroke', 'period', 'transition'):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0.0):
@@ -55,7 +59,8 @@ class StrokeReference:
         out = []
         for order, poly in enumerate(_STEP_DERIVATIVES):
             value = P.polyval(tau, poly) * (self.stroke / self.transition ** order)
-            out.append(np.where(falling, self.stroke, 0.0) + sign * value if order == 0 else sign * value)
+            out.append(self.offset + np.where(falling, self.stroke, 0.0) + sign * value if order == 0
+                       else sign * value)
         return tuple(out)
 
     def moves(self, duration: float) -> list[Move]:
@@ -64,6 +69,7 @@ class StrokeReference:
         moves = []
         for k in range(int(math.floor(duration / half + 1e-9))):
             rising = k % 2 == 0
-            origin, target = (0.0, self.stroke) if rising else (self.stroke, 0.0)
+            low, high = self.offset, self.offset + self.stroke
+            origin, target = (low, high) if rising else (high, low)
             moves.append(Move(k * half, k * half + self.transition, (k + 1) * half, origin, target))
         return moves

@@ -57,6 +57,19 @@ class SolenoidPlant:
     position = property(lambda self: float(self._state[1]), doc='Armature position x (m).')
     velocity = property(lambda self: float(self._state[2]), doc='Armature velocity v (m/s).')
 
+    def step(self, voltage: float, dt: float) -> None:
+        """Hold `voltage` (clipped to +-supply_voltage) over dt (s): one interval of the lockstep loop."""
+        u = np.array([min(max(float(voltage), -self.params.supply_voltage), self.params.supply_voltage)])
+        substeps = self._substeps or max(1, math.ceil(dt / MAX_SUBSTEP - 1e-9))
+        self._state = solenoid_sequence(self._state, u, dt, substeps, self._kernel)[0, :3].copy()
+        self.time += dt
+
+    def change(self, **values: float) -> None:
+        """From now on the plant has these parameters (SolenoidParameters fields), e.g. a warmer coil's
+        resistance; its state is kept."""
+        self.params = self.params.replace(**values)
+        self._kernel = self.params.kernel_vector()
+
     def run(self, voltages: Sequence[float] | np.ndarray, dt: float, *, sampling: str = 'end') -> dict[str, np.ndarray]:
         """Apply a voltage sequence, one ZOH interval of dt per value (clipped to +-supply_voltage).
 

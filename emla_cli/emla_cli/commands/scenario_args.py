@@ -1,4 +1,5 @@
 """The arguments `emla simulate` and `emla launch` share: which scenario, how long, which actuator."""
+from emla_core.errors import InputError
 from emla_core.topics import ESTIMATE_PERIOD
 
 from .numbers import add_number
@@ -19,6 +20,9 @@ def scenario_and_duration(args):
     from emla_bench import scenarios
 
     scenario = scenarios.get(args.scenario)
+    if scenario.actuator != 'moving_coil':
+        raise InputError(f'{scenario.name} is a {scenario.actuator} scenario: it runs in-process only, with '
+                         f'`emla scenario {scenario.name}` (the ROS graph carries the moving coil\'s parameters)')
     if args.model_file:
         from emla_core.model_file import read
         scenario = scenario.with_model(read(args.model_file), args.model_file)
