@@ -253,6 +253,10 @@ def expected(case, recording):
         if name == 'coulomb_friction':
             out['coulomb_force'] = (e['force'], True, None)
             out['friction_force'] = (e['force'], False, None)
+            # the plant's stuck contact: critically damped (tests/independent_plant.py); the candidate's band is
+            # searched on a grid, so its damping is compared for information
+            out['presliding_damping'] = (2.0 * math.sqrt(p['mass'] * e['force'] / e.get('presliding', 2e-6)),
+                                         False, None)
         elif name == 'smooth_friction':
             out['friction_force'] = (e['force'], True, None)
             out['coulomb_force'] = (e['force'], False, None)
@@ -260,6 +264,7 @@ def expected(case, recording):
             out['coulomb_force'] = (e['coulomb'], True, None)
             out['stribeck_force'] = (e['static'] - e['coulomb'], True, None)
             out['friction_force'] = (e['coulomb'], False, None)
+            out['presliding_damping'] = (2.0 * math.sqrt(p['mass'] * e['static'] / e['presliding']), False, None)
         elif name == 'return_spring':
             out['spring_stiffness'] = (e['stiffness'], True, None)
             p['load_force'] += e['stiffness'] * (xm - e.get('rest_position', 0.0))

@@ -106,11 +106,6 @@ def test_coulomb_friction_from_force_and_position_only():
     assert_gap_halved(result)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    'a known regression %s: both effects are named in turn and the friction level is within 0.2 %%, but the '
-    'Coulomb friction of emla_sim leaves the mechanical residual 5.7 times its noise floor (was explained on the '
-    'first-order rows): the exact mechanical row eliminates the velocity with the linear model between samples, '
-    'which sticking and breakaway within an interval break' % EXACT))
 def test_two_effects_are_named_in_turn():
     rng = np.random.default_rng(5)
     effects = hidden('resistance_drift', rng) + hidden('coulomb_friction', rng)

@@ -179,7 +179,8 @@ def _check_effect(effect, path, where):
     spec = EFFECTS.get(effect.candidate)
     specs = spec.specs() if spec else {}
     given, wanted = set(effect.parameters), set(candidate.parameters)
-    if not given <= wanted or not given or not all(name in specs for name in wanted - given):
+    missing = wanted - given
+    if given - wanted or (missing and (missing == wanted or not all(name in specs for name in missing))):
         raise InputError(f'{path}: {where} ({effect.candidate}) has parameters {", ".join(sorted(given)) or "none"}; '
                          f'it needs {", ".join(sorted(wanted)) or "none"}')
     effect = dataclasses.replace(effect, parameters={name: effect.parameters.get(name, (specs.get(name).default, None))
