@@ -76,3 +76,42 @@ def test_emla_scenario_runs_the_valve_and_simulate_refuses_it_in_one_line(tmp_pa
     out = subprocess.run([EMLA, 'simulate', 'valve_resistance_rise', '--bag', tmp_path / 'bag'],
                          capture_output=True, text=True, timeout=300)
     assert out.returncode == 2 and out.stderr.count('\n') == 1 and 'emla scenario valve_resistance_rise' in out.stderr
+
+
+@pytest.fixture(scope='module')
+def valves(tmp_path_factory):
+    """Four 2 s records of the independent generator at 5 kHz, an hour apart, the coil's R 0-15 % warmer."""
+    directory = tmp_path_factory.mktemp('valves')
+    truths = []
+    for k in range(4):
+        recording, truth = generator.record(duration=2.0, rate=5000.0, seed=40 + k,
+                                            params={'resistance': 6.0 * (1.0 + 0.05 * k)})
+        s = recording.signals
+        t = k * 3600.0 + recording.sample_period * np.arange(len(recording))
+        np.savetxt(directory / f'valve_{k}.csv', np.column_stack((t, s['voltage'], s['current'], s['position'])),
+                   delimiter=',', header='t,voltage,current,position', comments='', fmt='%.15g')
+        truths.append(truth)
+    return directory, truths
+
+
+def test_a_fleet_of_valves_is_trended_with_the_solenoids_parameters(valves):
+    """`emla trend --actuator solenoid`'s library call: each recording identified as `emla identify --actuator
+    solenoid` does, in time order, R within 0.05 % and 3 sigma of each one's truth."""
+    from emla_identification.fleet import trend
+    directory, truths = valves
+    result = trend([directory], actuator='solenoid', workers=1)
+    assert result.failed == [] and len(result.recordings) == 4
+    for record, truth in zip(result.recordings, truths):
+        assert set(record['parameters']) == set(generator.TRUTH)
+        r, s = record['parameters']['resistance'], record['std']['resistance']
+        assert abs(r / truth['resistance'] - 1.0) < 5e-4 and abs(r - truth['resistance']) < 3.0 * s
+    assert 'resistance' in result.table.column_names
+
+
+def test_trend_refuses_the_moving_coils_options_for_a_solenoid(valves):
+    from emla_core.errors import InputError
+    from emla_identification.fleet import trend
+    with pytest.raises(InputError, match='--model and --model-file apply to the moving coil'):
+        trend([valves[0]], actuator='solenoid', model='full')
+    with pytest.raises(InputError, match="--actuator 'stepper'"):
+        trend([valves[0]], actuator='stepper')

@@ -9,6 +9,8 @@ import dataclasses
 import math
 import numbers
 
+# The actuator families (`--actuator`): a moving coil (this module), a solenoid (physics/solenoid.py).
+FAMILIES = ('moving_coil', 'solenoid')
 # The six physical parameters, in the order used across the suite (identification, messages, reports).
 PARAMETER_NAMES = ('resistance', 'inductance', 'emf_constant', 'mass', 'damping', 'load_force')
 # SI units of the ActuatorParameters fields.

@@ -9,6 +9,7 @@ from pathlib import Path
 
 from emla_core.bag.report import read_warnings
 from emla_core.errors import InputError
+from emla_core.parameters import FAMILIES
 from emla_identification.plausibility import plausibility_warnings
 from emla_identification.streaming import read_record
 
@@ -55,7 +56,6 @@ the exit status stays 0.
 
 """ + DATA_HELP
 MODELS = ('electrical', 'mechanical', 'full', 'arx')
-ACTUATORS = ('moving_coil', 'solenoid')
 # options of the moving coil's identification that the solenoid's (offline, whole record) does not take
 NOT_FOR_SOLENOID = {'--model': 'model', '--orders': 'orders', '--input': 'input', '--output': 'output',
                     '--plot': 'plot', '--trajectory': 'trajectory', '--trajectory-interval': 'trajectory_interval',
@@ -100,8 +100,8 @@ def add_arguments(parser):
 
 
 def run(args):
-    if args.actuator not in ACTUATORS:
-        raise InputError(f'--actuator {args.actuator!r}: choose one of {", ".join(ACTUATORS)}')
+    if args.actuator not in FAMILIES:
+        raise InputError(f'--actuator {args.actuator!r}: choose one of {", ".join(FAMILIES)}')
     if (args.observer_from is None) != (args.position_out is None):
         raise InputError('--observer-from FIT.json and --position-out FILE.csv go together')
     if args.observer_from is not None and args.actuator != 'solenoid':

@@ -14,6 +14,7 @@ import sys
 import time
 
 from emla_core.errors import InputError
+from emla_core.parameters import FAMILIES
 
 from . import scenario_args
 from .numbers import add_number
@@ -24,7 +25,6 @@ FLEET = 'fleet.yaml'   # what a fleet directory holds once complete (and --force
 MAX_RECORDINGS = 10000
 
 HELP = 'Simulate a scenario in-process and record it as a bag.'
-ACTUATORS = ('moving_coil', 'solenoid')
 SOLENOID_PERIOD = 2e-4    # s: the solenoid's record is logged at 5 kHz
 SOLENOID_DURATION = 2.0   # s
 MAX_DURATION = 600.0   # s: 6 M samples at 10 kHz, held in memory with the truth and the estimates
@@ -145,8 +145,8 @@ def _simulate(scenario, duration, model_file):
 
 
 def run(args):
-    if args.actuator not in ACTUATORS:
-        raise InputError(f'--actuator {args.actuator!r}: choose one of {", ".join(ACTUATORS)}')
+    if args.actuator not in FAMILIES:
+        raise InputError(f'--actuator {args.actuator!r}: choose one of {", ".join(FAMILIES)}')
     if args.actuator == 'solenoid':
         return _solenoid(args)
     if args.csv:

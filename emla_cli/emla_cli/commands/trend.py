@@ -43,6 +43,9 @@ also as the coil's temperature (copper's 0.00393/K unless --alpha).
 def add_arguments(parser):
     parser.add_argument('paths', nargs='+', metavar='PATH',
                         help='recording, bag directory, directory of recordings, or glob pattern (quoted)')
+    parser.add_argument('--actuator', default='moving_coil', metavar='FAMILY',
+                        help='moving_coil (default) or solenoid (R, L0, a, g0, m, B, k, F0 as identify --actuator '
+                        'solenoid)')
     parser.add_argument('--model', metavar='MODEL',
                         help='electrical, mechanical or full (default: from the signals, as identify)')
     parser.add_argument('--model-file', metavar='M.yaml',
@@ -82,7 +85,8 @@ def run(args):
         structure = read(args.model_file)
     done = table_recordings(read_table(args.table)) if resumed else ()
     with _progress() as progress:
-        result = trend(args.paths, model=args.model, structure=structure, model_file=args.model_file,
+        result = trend(args.paths, actuator=args.actuator, model=args.model, structure=structure,
+                       model_file=args.model_file,
                        columns=args.columns, units=args.units, topics=args.topics,
                        sample_period=args.sample_period, delimiter=args.delimiter, decimal=args.decimal,
                        workers=args.workers, scheduler=args.scheduler, done=done, progress=progress,

@@ -86,7 +86,8 @@ def identify_recording(path: str, options: Mapping | None = None) -> dict:
     path : str
         The recording (file or bag directory), as the worker can open it.
     options : dict, optional
-        'model' (full, electrical or mechanical; default: from the signals), 'structure' (an
+        'actuator' (moving_coil, the default, or solenoid: emla_identification.solenoid's R, L0, a, g0, m, B, k,
+        F0), 'model' (full, electrical or mechanical; default: from the signals), 'structure' (an
         emla_core.model_file.Model whose effects are identified too, or None), 'model_file' (its name, for
         messages), 'source' (the path to report, default `path`) and the data flags of emla_core.load
         (columns, units, topics, sample_period, delimiter, decimal).
@@ -132,6 +133,14 @@ def _identified(path, options):
         return load(where, **flags)
 
     with read_warnings() as lost:
+        if options.get('actuator') == 'solenoid':
+            from ..solenoid import identify_solenoid
+            recording = loaded(path)
+            result = identify_solenoid(recording)
+            parameters, std = dict(result.parameters), dict(result.std)
+            fit, samples = {name: f.to_dict() for name, f in result.fit.items()}, result.samples
+            warnings = list(lost) + result.warnings() + _unknown(parameters, std)
+            return _record(path, recording, samples, parameters, std, fit, warnings)
         if structure is not None and structure.effects:
             from ..model import identified_structure
             recording = loaded(path)
@@ -154,6 +163,11 @@ def _identified(path, options):
             found, samples = result.warnings(), result.samples
         found = plausibility_warnings(parameters, std, recording) + found + _unknown(parameters, std)
         warnings = list(lost) + found
+    return _record(path, recording, samples, parameters, std, fit, warnings)
+
+
+def _record(path, recording, samples, parameters, std, fit, warnings):
+    """identify_recording's result but its path."""
     timed = 't' in (recording.inputs or {}) or Path(path).is_dir() or Path(path).suffix in ('.mcap', '.db3')
     return {'start': float(recording.start_time) if timed else None,
             'duration': samples * recording.sample_period, 'parameters': parameters, 'std': std, 'fit': fit,

@@ -19,6 +19,7 @@ from pathlib import Path
 import pyarrow as pa
 
 from emla_core.errors import InputError
+from emla_core.parameters import FAMILIES
 
 from .changes import detect_changes
 from .recordings import DATA_FLAGS, GREYBOX_MODELS, find_recordings, identify_recording
@@ -54,7 +55,8 @@ class Trend:
                 'workers': self.workers, 'seconds': self.seconds}
 
 
-def trend(paths: Iterable[str | Path], *, model: str | None = None, structure: object = None,
+def trend(paths: Iterable[str | Path], *, actuator: str = 'moving_coil', model: str | None = None,
+          structure: object = None,
           model_file: str | None = None, columns: str | None = None, units: str | None = None,
           topics: str | None = None, sample_period: float | None = None, delimiter: str | None = None,
           decimal: str | None = None, workers: int | None = None, scheduler: str | None = None,
@@ -67,6 +69,9 @@ def trend(paths: Iterable[str | Path], *, model: str | None = None, structure: o
     ----------
     paths : iterable of str or Path
         Recordings, directories of them or glob patterns (see find_recordings).
+    actuator : {'moving_coil', 'solenoid'}, optional
+        The actuator family: a solenoid's recordings are identified as `emla identify --actuator solenoid`
+        does (R, L0, a, g0, m, B, k, F0; emla_identification.solenoid), with no `model` or `structure`.
     model : {'full', 'electrical', 'mechanical'}, optional
         The grey-box model (default: from the signals, as `emla identify`).
     structure : emla_core.model_file.Model, optional
@@ -113,6 +118,10 @@ def trend(paths: Iterable[str | Path], *, model: str | None = None, structure: o
     [('damping', 'fleet/run_0060')]
     """
     started = time.monotonic()
+    if actuator not in FAMILIES:
+        raise InputError(f'--actuator {actuator!r}: choose one of {", ".join(FAMILIES)}')
+    if actuator != 'moving_coil' and (model is not None or structure is not None):
+        raise InputError(f'--model and --model-file apply to the moving coil, not to --actuator {actuator}')
     if model is not None and model not in GREYBOX_MODELS:
         raise InputError(f'--model {model!r}: a trend follows physical parameters; choose one of '
                          f'{", ".join(GREYBOX_MODELS)}')
@@ -122,7 +131,7 @@ def trend(paths: Iterable[str | Path], *, model: str | None = None, structure: o
     previous = {os.path.realpath(r['path']): r for r in done}
     kept = [previous[os.path.realpath(p)] for p in found if os.path.realpath(p) in previous]
     todo = [p for p in found if os.path.realpath(p) not in previous]
-    options = {'model': model, 'structure': structure, 'model_file': model_file,
+    options = {'actuator': actuator, 'model': model, 'structure': structure, 'model_file': model_file,
                **dict(zip(DATA_FLAGS, (columns, units, topics, sample_period, delimiter, decimal)))}
     identified, failed = list(kept), []
     where, count = 'none', 0
