@@ -16,6 +16,11 @@ YAML, SI units:
         parameters: {coulomb_force: {value: 1.006, std: 0.0012}}
         settings: {presliding_displacement: 2.7e-06, rigid_sticking: true}
     provenance: {data: bags/run, date: '2026-11-23T02:00:00Z', command: emla discrepancy ..., version: 0.1.0}
+
+A solenoid's model (`emla identify --actuator solenoid --model-out`) says so with `actuator: solenoid` (a file
+without the key is a moving coil's); its parameters are those of emla_core.physics.solenoid's SolenoidParameters
+(resistance, leakage_inductance, gap_coefficient, gap, mass, damping, spring_stiffness, spring_preload, and the
+end stops stroke_min, stroke_max), and it has no effects yet.
 """
 from __future__ import annotations
 
@@ -29,10 +34,10 @@ from typing import TYPE_CHECKING
 import yaml
 
 from emla_core.errors import InputError
-from emla_core.parameters import PARAMETER_BOUNDS, PARAMETER_NAMES
+from emla_core.parameters import FAMILIES, PARAMETER_BOUNDS, PARAMETER_NAMES
 
 if TYPE_CHECKING:
-    from emla_core.physics import Effect
+    from emla_core.physics import Effect, SolenoidParameters
 
 FORMAT = 1
 
@@ -55,10 +60,25 @@ class Model:
     parameters: dict
     effects: list = dataclasses.field(default_factory=list)
     provenance: dict = dataclasses.field(default_factory=dict)
+    actuator: str = 'moving_coil'   # the family (emla_core.parameters.FAMILIES)
 
     def values(self) -> dict[str, float]:
         """{name: value} of the nominal parameters."""
         return {k: v for k, (v, _) in self.parameters.items()}
+
+    def solenoid(self) -> SolenoidParameters:
+        """The solenoid a solenoid's model describes (ValueError for another family's)."""
+        from emla_core.physics.solenoid import SolenoidParameters
+        if self.actuator != 'solenoid':
+            raise ValueError(f'a {self.actuator} model, not a solenoid\'s')
+        return SolenoidParameters(**self.values())
+
+    def require(self, actuator: str, source: str = 'model file') -> Model:
+        """This model if it is of the family `actuator`; an InputError in one line naming both otherwise."""
+        if self.actuator != actuator:
+            raise InputError(f'{source}: a {self.actuator} model; this needs a {actuator} model'
+                             + (' (--actuator solenoid)' if self.actuator == 'solenoid' else ''))
+        return self
 
     def plant_effects(self, source: str = 'model file') -> tuple[Effect, ...]:
         """The physics layer's effects of this model, for the plant; InputError naming one it cannot simulate."""
@@ -78,14 +98,23 @@ class Model:
     def to_yaml(self) -> str:
         def pair(value, std):
             return {'value': float(value), 'std': None if std is None or not math.isfinite(std) else float(std)}
+        family = {} if self.actuator == 'moving_coil' else {'actuator': self.actuator}
         return yaml.safe_dump({
-            'emla_model': FORMAT, 'sample_period': float(self.sample_period),
-            'parameters': {k: pair(*self.parameters[k]) for k in PARAMETER_NAMES if k in self.parameters},
+            'emla_model': FORMAT, **family, 'sample_period': float(self.sample_period),
+            'parameters': {k: pair(*self.parameters[k]) for k in _names(self.actuator) if k in self.parameters},
             'effects': [{'effect': e.effect, 'candidate': e.candidate,
                          'parameters': {k: pair(*v) for k, v in e.parameters.items()},
                          'settings': {k: _plain(v) for k, v in e.settings.items()}} for e in self.effects],
             'provenance': {k: str(v) for k, v in self.provenance.items()},
         }, sort_keys=False)
+
+
+def _names(actuator):
+    """The nominal parameters of a family's model, in their order."""
+    if actuator == 'moving_coil':
+        return PARAMETER_NAMES
+    from emla_core.physics.solenoid import SOLENOID_PARAMETER_NAMES
+    return SOLENOID_PARAMETER_NAMES + ('stroke_min', 'stroke_max')
 
 
 def _plain(value):
@@ -134,16 +163,23 @@ def read(path: Path | str) -> Model:
         raise InputError(f'{path}: not YAML: {" ".join(str(exc).split())}') from None
     if not isinstance(document, dict) or document.get('emla_model') != FORMAT:
         raise InputError(f'{path}: not an emla model file (it must start with `emla_model: {FORMAT}`)')
-    unknown = sorted(set(document) - {'emla_model', 'sample_period', 'parameters', 'effects', 'provenance'})
+    unknown = sorted(set(document) - {'emla_model', 'actuator', 'sample_period', 'parameters', 'effects',
+                                      'provenance'})
     if unknown:
         raise InputError(f'{path}: unknown key(s) {", ".join(unknown)}')
+    actuator = document.get('actuator', 'moving_coil')
+    if actuator not in FAMILIES:
+        raise InputError(f'{path}: actuator must be one of {", ".join(FAMILIES)}, got {actuator!r}')
     period = _number(document.get('sample_period'), path, 'sample_period')
     if not 0 < period <= 10.0:
         raise InputError(f'{path}: sample_period must be within (0, 10] s, got {period}')
     parameters = _pairs(document.get('parameters'), path, 'parameters')
-    unknown = sorted(set(parameters) - set(PARAMETER_NAMES))
+    names = _names(actuator)
+    unknown = sorted(set(parameters) - set(names))
     if unknown:
-        raise InputError(f'{path}: unknown parameter(s) {", ".join(unknown)}; known: {", ".join(PARAMETER_NAMES)}')
+        raise InputError(f'{path}: unknown parameter(s) {", ".join(unknown)}; known: {", ".join(names)}')
+    if actuator == 'solenoid':
+        return _solenoid_model(document, path, period, parameters)
     for name, (value, _) in parameters.items():
         low, high = PARAMETER_BOUNDS[name]
         if not low <= value <= high:
@@ -166,6 +202,22 @@ def read(path: Path | str) -> Model:
         effects.append(_check_effect(effect, path, where))
     provenance = document.get('provenance') or {}
     return Model(period, parameters, effects, provenance if isinstance(provenance, dict) else {})
+
+
+def _solenoid_model(document, path, period, parameters):
+    """A solenoid's Model from its checked document: every parameter given, a possible solenoid, no effects."""
+    from emla_core.physics.solenoid import SolenoidParameters
+    missing = [name for name in _names('solenoid') if name not in parameters]
+    if missing:
+        raise InputError(f'{path}: a solenoid model needs {", ".join(missing)}')
+    if document.get('effects'):
+        raise InputError(f'{path}: a solenoid model has no effects yet (the physics layer\'s are the moving coil\'s)')
+    try:
+        SolenoidParameters(**{k: v for k, (v, _) in parameters.items()})
+    except ValueError as exc:
+        raise InputError(f'{path}: {exc}') from None
+    provenance = document.get('provenance') or {}
+    return Model(period, parameters, [], provenance if isinstance(provenance, dict) else {}, actuator='solenoid')
 
 
 def _check_effect(effect, path, where):

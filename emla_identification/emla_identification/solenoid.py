@@ -112,6 +112,14 @@ class SolenoidResult:
         """The identified solenoid as SolenoidParameters, its end stops the record's (`stroke`)."""
         return SolenoidParameters(**self.parameters, stroke_min=self.stroke[0], stroke_max=self.stroke[1])
 
+    def model_file(self, data: str, command: str):
+        """The identified solenoid as a model file's Model (emla_core.model_file; `actuator: solenoid`): the
+        parameters with their one-sigmas, the end stops the record's."""
+        from emla_core.model_file import Model, provenance
+        parameters = {name: (value, self.std[name]) for name, value in self.parameters.items()}
+        parameters.update(stroke_min=(self.stroke[0], None), stroke_max=(self.stroke[1], None))
+        return Model(self.sample_period, parameters, [], provenance(data, command), actuator='solenoid')
+
 
 def identify_solenoid(data: Recording | Path | str | None = None, *, sample_period: float | None = None,
                       voltage: ArrayLike | None = None, current: ArrayLike | None = None,

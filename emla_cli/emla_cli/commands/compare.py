@@ -23,12 +23,14 @@ own measured inputs and every sample is predicted from the measured state a hori
   position  from the measured current (the force Km I and the model's effects) or force, 10 ms ahead
 Fit (%) = 100 (1 - |y - yhat| / |y - mean y|) and NRMSE = |y - yhat| / |y - mean y| per signal. With two
 --model-file the two models are compared side by side on the same data (the nominal and the augmented
-model: the gap shrinking). The JSON goes to stdout unless --json is given; --plot draws measured against
-predicted over the stretch where they differ most. A signal the data seem to read in another unit or sign
-than the model expects (the model's voltage and force balances on the data name it and its factor: a current
-in mA, a flipped position, a shunt's gain; a time in ms from the sample period) is warned about on stderr with
-the flag that fixes it, as is a figure that cannot be computed (null in the JSON); both are listed under
-"warnings".
+model: the gap shrinking). A solenoid's model file (`actuator: solenoid`, from `emla identify --actuator solenoid
+--model-out`) runs free under the measured voltage from the first sample (an open-loop solenoid is stable: its
+spring and stops bring it back), current and position over the whole record. The JSON goes to stdout unless
+--json is given; --plot draws measured against predicted over the stretch where they differ most. A signal
+the data seem to read in another unit or sign than the model expects (the model's voltage and force balances
+on the data name it and its factor: a current in mA, a flipped position, a shunt's gain; a time in ms from the
+sample period) is warned about on stderr with the flag that fixes it, as is a figure that cannot be computed
+(null in the JSON); both are listed under "warnings".
 
 """ + DATA_HELP
 
@@ -49,6 +51,7 @@ def run(args):
     from emla_identification.checks import check_magnitudes, numerical_failures
     from emla_identification.discrepancy.predict import predict
     from emla_identification.model import model_on_data
+    from emla_identification.solenoid_predict import predict_solenoid
 
     if len(args.model_file) > 2:
         raise InputError('--model-file: give one model, or two to compare them')
@@ -57,9 +60,14 @@ def run(args):
         recording = load_data(args)
     check_magnitudes(recording)
     predictions = {}
+    models = {path: read(path) for path in args.model_file}
+    families = {model.actuator for model in models.values()}
+    if len(families) > 1:
+        raise InputError(f'--model-file: {" and ".join(args.model_file)} are models of different actuators')
     with numerical_failures(recording.source, 'the models cannot be predicted'):
-        for path in args.model_file:
-            predictions[path] = predict(model_on_data(read(path), recording, path))
+        for path, model in models.items():
+            predictions[path] = (predict_solenoid(model.solenoid(), recording) if model.actuator == 'solenoid'
+                                 else predict(model_on_data(model, recording, path)))
     result = {'models': list(predictions),
               'fit_percent': {m: {s: round(100.0 * (1.0 - p.nrmse), 4) for s, p in pred.items()}
                               for m, pred in predictions.items()},
@@ -83,8 +91,9 @@ def _warnings(paths, recording):
     from emla_core.model_file import read
     from emla_identification.plausibility import plausibility_warnings
 
-    return list(dict.fromkeys(w for path in paths
-                              for w in plausibility_warnings(read(path).values(), {}, recording, identified=False)))
+    models = [read(path) for path in paths]
+    return list(dict.fromkeys(w for model in models if model.actuator == 'moving_coil'
+                              for w in plausibility_warnings(model.values(), {}, recording, identified=False)))
 
 
 def _percent(nrmse):
@@ -129,7 +138,8 @@ def plot(predictions, recording, path, window=0.08):
             top.plot(recording.start_time + p.index[mask] * ts, p.predicted[mask], color=colour, lw=1, label=label)
             bottom.plot(recording.start_time + p.index[mask] * ts, (p.measured - p.predicted)[mask], color=colour,
                         lw=1, label=Path(model).stem)
-        top.set_title(f'{signal}: {reference.horizon}-step-ahead prediction ({reference.horizon * ts * 1e3:g} ms)')
+        top.set_title(f'{signal}: free run from the first sample' if reference.horizon >= len(recording) - 1 else
+                      f'{signal}: {reference.horizon}-step-ahead prediction ({reference.horizon * ts * 1e3:g} ms)')
         top.legend(fontsize=8)
         bottom.axhline(0.0, color='0.6', lw=0.8)
         bottom.legend(fontsize=8)

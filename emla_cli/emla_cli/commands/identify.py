@@ -59,7 +59,7 @@ MODELS = ('electrical', 'mechanical', 'full', 'arx')
 # options of the moving coil's identification that the solenoid's (offline, whole record) does not take
 NOT_FOR_SOLENOID = {'--model': 'model', '--orders': 'orders', '--input': 'input', '--output': 'output',
                     '--plot': 'plot', '--trajectory': 'trajectory', '--trajectory-interval': 'trajectory_interval',
-                    '--model-file': 'model_file', '--model-out': 'model_out', '--memory-time': 'memory_time'}
+                    '--model-file': 'model_file', '--memory-time': 'memory_time'}
 PROGRESS_MIN_SAMPLES = 200_000  # smaller inputs finish too fast for a progress bar
 DEFAULT_POINTS = 200  # estimates in the trajectory (--plot, --trajectory) unless --trajectory-interval says
 
@@ -115,7 +115,7 @@ def run(args):
     structure = None
     if args.model_file:
         from emla_core.model_file import read
-        structure = read(args.model_file)
+        structure = read(args.model_file).require('moving_coil', args.model_file)
     with read_warnings() as lost:  # a bag's skipped chunks and the data they cost, for the JSON too
         parts = None
         if model == 'arx':
@@ -158,14 +158,19 @@ def _solenoid(args):
     """`emla identify --actuator solenoid`: the JSON of emla_identification.solenoid, its warnings on stderr."""
     from emla_identification.solenoid import identify_solenoid
     _solenoid_only(args)
-    check_outputs({'--json': args.json}, [args.data], args.force)
+    check_outputs({'--json': args.json, '--model-out': args.model_out}, [args.data], args.force)
     with read_warnings() as lost:
         recording = load_data(args)
         result = identify_solenoid(recording)
     data = result.to_dict()
     data['warnings'] = lost + warn(result.warnings() + unknown_figures(data), 'identify')
     data.update(understood(recording, 'identify'))
-    emit_json(data, args.json)
+    files = []
+    if args.model_out:
+        from emla_core.model_file import write
+        model = result.model_file(args.data, _command_line())
+        files.append((args.model_out, lambda temporary: write(model, temporary)))
+    emit_json(data, args.json, files)
     return 0
 
 

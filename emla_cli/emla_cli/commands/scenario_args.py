@@ -25,5 +25,5 @@ def scenario_and_duration(args):
                          f'`emla scenario {scenario.name}` (the ROS graph carries the moving coil\'s parameters)')
     if args.model_file:
         from emla_core.model_file import read
-        scenario = scenario.with_model(read(args.model_file), args.model_file)
+        scenario = scenario.with_model(read(args.model_file).require('moving_coil', args.model_file), args.model_file)
     return scenario, scenario.duration if args.duration is None else args.duration

@@ -170,13 +170,17 @@ def _solenoid(args):
     plant's true ones, the voltage command, the end time; the true parameters in the bag's metadata) or a CSV."""
     from emla_core.recording import write_csv
     from emla_sim.solenoid import record
-    if args.scenario != 'default' or args.model_file or args.fleet:
-        raise InputError('--actuator solenoid simulates its own run: no scenario, --model-file or --fleet')
+    if args.scenario != 'default' or args.fleet:
+        raise InputError('--actuator solenoid simulates its own run: no scenario or --fleet')
     _no_fleet_options(args)
-    check_outputs({'--csv': args.csv}, [], args.force, {'--bag': (args.bag, BAG)} if args.bag else None)
+    check_outputs({'--csv': args.csv}, [args.model_file], args.force, {'--bag': (args.bag, BAG)} if args.bag else None)
+    params = None
+    if args.model_file:   # a solenoid's model file (emla identify --actuator solenoid --model-out)
+        from emla_core.model_file import read
+        params = read(args.model_file).require('solenoid', args.model_file).solenoid()
     duration = SOLENOID_DURATION if args.duration is None else args.duration
     started = time.monotonic()
-    recording, truth = record(duration=duration, sample_period=SOLENOID_PERIOD)
+    recording, truth = record(params, duration=duration, sample_period=SOLENOID_PERIOD)
     if args.csv:
         publish([(stage(args.csv, lambda temporary: write_csv(recording, temporary)), args.csv)])
     else:

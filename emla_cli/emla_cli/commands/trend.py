@@ -82,7 +82,7 @@ def run(args):
     structure = None
     if args.model_file:
         from emla_core.model_file import read
-        structure = read(args.model_file)
+        structure = read(args.model_file).require('moving_coil', args.model_file)
     done = table_recordings(read_table(args.table)) if resumed else ()
     with _progress() as progress:
         result = trend(args.paths, actuator=args.actuator, model=args.model, structure=structure,
