@@ -76,6 +76,8 @@ def test_the_moving_coils_commands_refuse_a_solenoids_model(valve, capsys, tmp_p
                    'different actuators')
     one_line_error(capsys, ['simulate', '--actuator', 'solenoid', '--model-file', moving, '--csv', tmp_path / 'x.csv'],
                    'a moving_coil model')
+    one_line_error(capsys, ['compare', folder / 'v2.csv', '--model-file', model, '--actuator', 'moving_coil'],
+                   'a solenoid model')
 
 
 @pytest.mark.parametrize('change, problem', [

@@ -5,6 +5,7 @@ import sys
 from pathlib import Path
 
 from emla_core.errors import InputError
+from emla_core.parameters import FAMILIES
 
 from .inputs import DATA_HELP, add_data_arguments, load_data, understood, unknown_figures, warn
 from .output import add_force_argument, check_outputs, emit_json
@@ -37,6 +38,8 @@ sample period) is warned about on stderr with the flag that fixes it, as is a fi
 
 def add_arguments(parser):
     parser.add_argument('data', metavar='DATA', help='CSV or MAT file, rosbag2 directory or .mcap file')
+    parser.add_argument('--actuator', metavar='FAMILY',
+                        help='moving_coil or solenoid: the family the model files must be (default: theirs)')
     parser.add_argument('--model-file', metavar='M.yaml', action='append', required=True,
                         help='a model file (give it twice to compare two models)')
     parser.add_argument('--json', metavar='FILE', help='write the result here instead of stdout')
@@ -61,6 +64,10 @@ def run(args):
     check_magnitudes(recording)
     predictions = {}
     models = {path: read(path) for path in args.model_file}
+    if args.actuator is not None:
+        if args.actuator not in FAMILIES:
+            raise InputError(f'--actuator {args.actuator!r}: choose one of {", ".join(FAMILIES)}')
+        models = {path: model.require(args.actuator, path) for path, model in models.items()}
     families = {model.actuator for model in models.values()}
     if len(families) > 1:
         raise InputError(f'--model-file: {" and ".join(args.model_file)} are models of different actuators')
