@@ -84,6 +84,35 @@ def input_gains(kind, q, sample_period, motion=None):
             scale[..., None] * np.stack((pxv * H[..., 2] - a * H[..., 1], H[..., 1]), -1))
 
 
+def piece_gains(kind, q, sample_period, pieces):
+    """(voltage gains, load gains) of a voltage or a load force held over each of `pieces` equal parts of each
+    interval a row of regression `kind` spans, at one parameter vector q: (intervals, pieces) each, in time order;
+    over each interval they sum to input_gains'. A term that switches within an interval (a friction reversing)
+    enters the row exactly through them, where the interval's gain would take it as held over the whole interval:
+    the row's response to an input depends on when within the interval it acts (the back-EMF through the coil's
+    L/R weighs the interval's end; a mass's second difference, the middle)."""
+    q = np.asarray(q, dtype=float)
+    if kind == 'force':   # the triangle over [t_k-1, t_k+1] on a free mass: -1/m times its area over each piece
+        m = np.arange(pieces)
+        rising = (2.0 * m + 1.0) / (2.0 * pieces ** 2)
+        load = -np.stack((rising, rising[::-1])) / q[0]
+        return np.zeros_like(load), load
+    P = transition(q, sample_period)[0]
+    Ph, Gh, Hh = transition(q, sample_period / pieces)
+    later = [np.eye(3)]   # the state carried from the end of a piece to the end of its interval
+    for _ in range(pieces - 1):
+        later.append(Ph @ later[-1])
+    responses = np.stack([[later[pieces - 1 - j] @ column for j in range(pieces)] for column in (Gh, Hh)])
+    if kind == 'electrical':   # as input_gains: the state change at t_k, the velocity eliminated
+        ratio = P[0, 2] / P[1, 2]
+        voltage, load = (r[None, :, 0] - ratio * r[None, :, 1] for r in responses)
+        return voltage, load
+    a, pxv = P[2, 2], P[1, 2]
+    scale = 2.0 / ((1.0 + a) * sample_period ** 2)
+    voltage, load = (scale * np.stack((pxv * r[:, 2] - a * r[:, 1], r[:, 1])) for r in responses)
+    return voltage, load
+
+
 def coefficients(kind, q, sample_period, motion=None):
     """The coefficients g(q) of regression `kind` (regressors.py) for parameter rows q: [R, L, Km, m, B, Fl, p...]
     ([m, B, Fl, p...] for the force regression: [1, B, Fl, p...] / m), along the last axis; motion: transition(q)
@@ -127,6 +156,21 @@ def gains_jacobian(kind, q, sample_period):
     both, derivative = gains(q), _differences(gains, q, _steps(kind, q))
     half = len(both) // 2
     return both[:half], both[half:], derivative[:half], derivative[half:]
+
+
+def piece_gains_jacobian(kind, q, sample_period, pieces):
+    """(voltage piece gains, load piece gains, their derivatives d/dq: (intervals, pieces, parameters) each) of a
+    regression at one parameter vector q (piece_gains; central differences)."""
+    q = np.asarray(q, dtype=float)
+
+    def gains(rows):
+        return np.array([np.concatenate([g.ravel() for g in piece_gains(kind, z, sample_period, pieces)])
+                         for z in np.atleast_2d(rows)])
+    shape = piece_gains(kind, q, sample_period, pieces)[0].shape
+    both, derivative = gains(q)[0], _differences(gains, q, _steps(kind, q))
+    half = len(both) // 2
+    return (both[:half].reshape(shape), both[half:].reshape(shape), derivative[:half].reshape(shape + (len(q),)),
+            derivative[half:].reshape(shape + (len(q),)))
 
 
 def _steps(kind, q):

@@ -86,6 +86,14 @@ class Candidate:
     def force(self, s):
         return None
 
+    def force_between(self, data):
+        """The force term between the samples, for a term that switches within an interval (a friction reversing):
+        (intervals, pieces, parameters), its mean over each of `pieces` equal parts of every interval of `data`
+        (the regression rows then take it exactly, through the rows' gain of each part); None to have the rows take
+        `force` at the samples (a term smooth between them). `force` still gives it at the samples of a
+        simulation."""
+        return None
+
     def held(self, data):
         """Samples (boolean array) at which the effect holds the moving part still, as static friction does:
         the force balance does not apply there (the part does not accelerate whatever the other forces);

@@ -14,25 +14,29 @@ A candidate's terms enter like the inputs whose place they take, through the gai
 held over each interval the row spans (physical.input_gains): an extra voltage drop e as -e times the voltage's
 gain, a force f (opposing +x) as f times the load's gain, an extra inductance l as phi_k (dg/dL) l.
 
-- Electrical rows (the interval [t_k-1, t_k]): the terms at the interval's state: mean position, the velocity of
-  its displacement and the mean of its start current and the model's step from it (free of the output's noise).
+- Electrical rows (the interval [t_k-1, t_k]): the terms at the middle of each of PIECES equal parts of the
+  interval (mean position, the velocity of its displacement, the current going from the interval's start to its
+  end), each weighted by the row's gain of an input over that part (physical.piece_gains): the row does not
+  weigh an interval's parts equally (a voltage acts on I_k the more the later it comes, through L/R).
 - Mechanical rows (the intervals [t_k-1, t_k+1]): the terms at the measured samples k-1, k, k+1 with the weights
   (g1 / 3, 2 (g1 + g0) / 3, g0 / 3) of the two intervals' gains g1, g0: the triangle weighting of a force linear
   between samples, exact for a free mass. The force regression (a measured force) is the case g1 = g0 = -1 / (2 m).
+- A force term that switches within an interval (a friction reversing) may be given between the samples instead
+  (Candidate.force_between: its mean over equal parts of every interval); both kinds of row then take it through
+  their gain of each part, exactly whatever the coil's and the mass's dynamics within the interval.
 """
 import functools
 
 import numpy as np
 
 from emla_core.parameters import PARAMETER_NAMES
-from emla_identification.physical import MODEL_PARAMETERS, gains_jacobian, jacobian
+from emla_identification.physical import MODEL_PARAMETERS, gains_jacobian, jacobian, piece_gains_jacobian
 from emla_identification.regressors import instruments, rows
 
 from .data import State, regression_rows
 
 FLUX_NODES = ((0.5 - 0.5 * 0.6 ** 0.5, 0.5, 0.5 + 0.5 * 0.6 ** 0.5), (5 / 18, 8 / 18, 5 / 18))   # Gauss-Legendre
-INTERVAL_NODES = tuple(0.5 * (np.polynomial.legendre.leggauss(8)[0] + 1.0)), \
-    tuple(0.5 * np.polynomial.legendre.leggauss(8)[1])   # on [0, 1], for the terms along an electrical interval
+PIECES = 8   # parts of an electrical row's interval its terms are taken on, each at its middle (_electrical)
 INSTRUMENT_LAG = 2   # rows: an electrical row's error holds the noise of samples k-1 and k; these hold k-3, k-2
 
 
@@ -48,7 +52,8 @@ class Rows:
     def __init__(self, data, kind, model):
         ts = data.sample_period
         self.data, self.kind, self.names = data, kind, nominal_names(data)
-        q0 = np.array([model[name] for name in self.names], dtype=float)
+        q0 = self.q0 = np.array([model[name] for name in self.names], dtype=float)
+        self._piece_gains = {}
         self.phi, self.y = rows(kind, data.signals, ts)
         self.coefficients, self.jacobian = jacobian(kind, q0, ts)
         self.prediction = self.phi @ self.coefficients
@@ -88,25 +93,48 @@ class Rows:
         """(n, sum of the candidates' parameters) columns at regression rows `rows`; `current`: the electrical
         rows' start currents to use instead of the measured ones (a prediction)."""
         blocks = [np.zeros((len(self.y[rows]), 0))]
-        for voltage, load, flux in self._terms(candidates, rows, current):
-            block = np.tensordot(self._weights(self.load_gains), load, 1) \
-                - np.tensordot(self._weights(self.voltage_gains), voltage, 1)
+        for candidate, (voltage, load, flux) in zip(candidates, self._terms(candidates, rows, current)):
+            between = candidate.force_between(self.data)
+            block = (np.tensordot(self._weights('load_gains'), load, 1) if between is None
+                     else self._between(between, rows, self._pieces(between.shape[1])[1])) \
+                - np.tensordot(self._weights('voltage_gains'), voltage, 1)
             if flux is not None:
                 block = block - np.tensordot(self.voltage_gains, flux, 1)
             blocks.append(block)
         return np.hstack(blocks)
+
+    def _pieces(self, pieces):
+        """(voltage, load piece gains, their d/dq) of `pieces` parts per interval (physical.piece_gains) at the
+        model the rows are linearised about."""
+        if pieces not in self._piece_gains:
+            self._piece_gains[pieces] = piece_gains_jacobian(self.kind, self.q0, self.data.sample_period, pieces)
+        return self._piece_gains[pieces]
+
+    def _between(self, between, rows, gains):
+        """A force term given between the samples (Candidate.force_between) through the rows' gain of each part of
+        their intervals (`gains`: intervals x pieces, or x parameters too for the derivatives)."""
+        k = self.index[rows]
+        out = np.einsum('p...,npq->nq...', gains[0], between[k - 1])
+        if self.kind != 'electrical':   # the second interval of a mechanical row
+            out = out + np.einsum('p...,npq->nq...', gains[1], between[k])
+        return out
 
     def slopes(self, candidates, added):
         """(n, nominal parameters): d/dq of the candidates' terms with parameters `added` (their columns depend on
         the model through the input gains): the cross terms of the Gauss-Newton step about (q0, added)."""
         out = np.zeros((len(self.y), len(self.names)))
         start = 0
-        for voltage, load, flux in self._terms(candidates, slice(None), None):
+        for candidate, (voltage, load, flux) in zip(candidates, self._terms(candidates, slice(None), None)):
             p = added[start:start + voltage.shape[-1]]
             start += len(p)
+            between = candidate.force_between(self.data)
+            if between is not None:
+                out += np.einsum('nqj,q->nj', self._between(between, slice(None),
+                                                            self._pieces(between.shape[1])[3]), p)
+                load = np.zeros_like(load)
             for j in range(len(voltage)):
-                out += np.outer(load[j] @ p, self._weights(self.load_slopes)[j]) \
-                    - np.outer(voltage[j] @ p, self._weights(self.voltage_slopes)[j])
+                out += np.outer(load[j] @ p, self._weights('load_slopes')[j]) \
+                    - np.outer(voltage[j] @ p, self._weights('voltage_slopes')[j])
             for j in range(0 if flux is None else len(flux)):
                 out -= np.outer(flux[j] @ p, self.voltage_slopes[j])
         return out
@@ -160,25 +188,30 @@ class Rows:
         """The model's I_k from I_k-1 = `start` (and the rows' other regressors)."""
         return start * self.coefficients[0] + self.phi[rows, 1:] @ self.coefficients[1:]
 
-    def _weights(self, gains):
-        """Each piece's weight from the intervals' gains (along the first axis): the electrical row's one interval;
-        the mechanical rows' samples k-1, k, k+1 (module doc)."""
+    def _weights(self, name):
+        """Each piece's weight of the gains `name` (voltage_gains, load_gains, or their d/dq: voltage_slopes,
+        load_slopes, along a last axis): the electrical row's gain of each of the PIECES parts of its interval
+        (physical.piece_gains: the row weighs the parts unequally, the back-EMF through L/R the interval's end);
+        the mechanical rows' samples k-1, k, k+1 from the two intervals' gains (module doc)."""
         if self.kind == 'electrical':
-            return np.multiply.outer(INTERVAL_NODES[1], gains[0])
+            voltage, load, voltage_slopes, load_slopes = self._pieces(PIECES)
+            return {'voltage_gains': voltage, 'load_gains': load, 'voltage_slopes': voltage_slopes,
+                    'load_slopes': load_slopes}[name][0]
+        gains = getattr(self, name)
         return np.stack((gains[0] / 3.0, 2.0 * (gains[0] + gains[1]) / 3.0, gains[1] / 3.0))
 
     def _electrical(self, rows, current):
-        """[the states along the interval [t_k-1, t_k] at the INTERVAL_NODES]: the mean position, the velocity of
-        the displacement, the current from its start to its end (the measured one; in a prediction, the model's
-        step), so that a term steep in the current (a dead-time drop reversing within a few mA) is averaged over
-        the interval rather than taken at its mean current."""
+        """[the states along the interval [t_k-1, t_k] at the middle of each of its PIECES parts]: the mean
+        position, the velocity of the displacement, the current going linearly from its start to its end (the
+        measured one; in a prediction, the model's step), so that a term steep in the current (a dead-time drop
+        reversing within a few mA) is taken where it acts within the interval rather than at its mean current."""
         x = self.data.signals['position']
         k = self.index[rows]
         start = self.phi[rows, 0] if current is None else current
         end = self.y[rows] if current is None else self._step(rows, start)
         return [State(self.data, k - 1, position=0.5 * (x[k - 1] + x[k]), velocity=self.phi[rows, 2],
                       current=start + node * (end - start), voltage=self.phi[rows, 1])
-                for node in INTERVAL_NODES[0]]
+                for node in (np.arange(PIECES) + 0.5) / PIECES]
 
     @functools.cached_property
     def _measured(self):

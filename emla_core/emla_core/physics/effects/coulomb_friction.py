@@ -2,6 +2,7 @@
 import dataclasses
 from typing import ClassVar
 
+import numba
 import numpy as np
 
 from ..candidate import Candidate, of_effect
@@ -12,6 +13,7 @@ PARAMETERS = (Parameter('coulomb_force', 'N', 1.0, lower=0.0, doc='friction leve
               Parameter('presliding_damping', 'N s/m', 0.0, lower=0.0,
                         doc='sigma1, the damping of the stuck contact within its pre-sliding band (LuGre)'))
 SLIDING_SPEED = 0.1  # m/s: online rows slower than this are skipped (see `_online_force`)
+PIECES = 8           # parts of each sample interval over which the candidate follows the contact (`contact`)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -35,27 +37,34 @@ class _Candidate(Candidate):
     parameters, units = of_effect(PARAMETERS)
     acts_on: ClassVar[tuple] = ('mechanical', 'force')
     signs: ClassVar[tuple] = (1, 1)
+    scale: ClassVar[str] = 'presliding'
     presliding: float = 0.0   # m
-    direction: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
-    rate: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)   # dz/dt
+    direction: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)   # at the samples
+    rate: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)        # dz/dt at the samples
+    between: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)     # (d, dz/dt) per piece
     stuck: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
 
     def variants(self, data):
         x = data.signals['position']
-        # white position noise has third differences of variance 20 sigma^2 (MAD for robustness)
-        noise = max(1.4826 * np.median(np.abs(np.diff(x, 3))) / np.sqrt(20.0), 1e-6 * np.ptp(x))
         variants = []
-        for delta in 3.0 * noise * np.array([1.0, 2.0, 4.0, 8.0]):
-            play = _play(x, delta)
-            play['rate'] = np.gradient(play['direction'] * delta, data.sample_period)
+        for delta in band_widths(x):   # then refined between the best's neighbours (Candidate.scale)
+            terms = contact(x, delta, data.sample_period)
             # stuck parts either held still (rigid sticking) or pulled back elastically within the band
-            variants += [dataclasses.replace(self, presliding=float(delta), **play),
-                         dataclasses.replace(self, presliding=float(delta), direction=play['direction'],
-                                             rate=play['rate'])]
+            variants += [dataclasses.replace(self, presliding=float(delta), **terms),
+                         dataclasses.replace(self, presliding=float(delta), **dict(terms, stuck=None))]
         return variants
+
+    def at(self, data, value):
+        terms = contact(data.signals['position'], float(value), data.sample_period)
+        if self.stuck is None:
+            terms['stuck'] = None
+        return dataclasses.replace(self, presliding=float(value), **terms)
 
     def force(self, s):
         return np.stack((self.direction[s.index], self.rate[s.index]))
+
+    def force_between(self, data):
+        return self.between
 
     def held(self, data):
         return self.stuck
@@ -64,16 +73,58 @@ class _Candidate(Candidate):
         return {'presliding_displacement': self.presliding, 'rigid_sticking': self.stuck is not None}
 
 
+def band_widths(x, most=12):
+    """The pre-sliding bands delta tried on the measured positions x: 3 sigma times 1, 2, 4, ... up to 8 times
+    3 sigma' (position_noise), at most `most` of them."""
+    noise, upper = position_noise(x)
+    count = min(most, int(np.floor(np.log2(8.0 * upper / noise) + 1e-9)) + 1)
+    return 3.0 * noise * 2.0 ** np.arange(count)
+
+
+def position_noise(x):
+    """(sigma, sigma'): the measured position's noise, and an upper bound of it (m).
+
+    sigma' is the MAD of the third differences (white noise: variance 20 sigma^2), which is the noise at fast
+    sampling but the motion's own third difference when the logger is slow (a loop hunting at 2 kHz: 60 um for
+    a 1 um quantiser); sigma is a quantiser's step / sqrt(12) where the positions lie on a grid, else sigma'."""
+    steps = np.diff(np.unique(x))
+    step = steps.min() if steps.size else 0.0
+    on_grid = step > 1e-9 * np.ptp(x) and np.all(np.abs(steps / step - np.round(steps / step)) < 1e-3)
+    quantiser = step / np.sqrt(12.0) if on_grid else 0.0
+    # (a part held still most of the time leaves third differences of 0: the quantiser's noise is the floor)
+    upper = max(1.4826 * np.median(np.abs(np.diff(x, 3))) / np.sqrt(20.0), 1e-6 * np.ptp(x), quantiser)
+    return (quantiser if on_grid else upper), upper
+
+
+def contact(x, width, sample_period, pieces=PIECES):
+    """{'direction', 'rate', 'between', 'stuck'} of the dry contact on the measured positions x: z = x - y, y the
+    play operator of `width`, d = z / width, followed along the cubic spline through the samples at `pieces`
+    points per interval. direction, rate: d and dz/dt at the samples; between: (intervals, pieces, 2), the means of
+    d and dz/dt over each piece (Candidate.force_between: a reversal within an interval, every few samples in a
+    loop hunting at a 2 kHz logger, enters the rows at its time); stuck: y did not move over the interval before
+    the sample (the band held the part)."""
+    from scipy.interpolate import CubicSpline  # here: the nodes that load the physics need no scipy
+    n = len(x)
+    fine = CubicSpline(np.arange(n), x)(np.arange((n - 1) * pieces + 1) / pieces)
+    y = _play(fine, float(width))
+    z = fine - y
+    parts = (n - 1, pieces)
+    direction = 0.5 * (z[:-1] + z[1:]).reshape(parts) / width   # the trapezoid over each piece
+    rate = np.diff(z).reshape(parts) * (pieces / sample_period)
+    moved = np.concatenate(([True], np.any(np.diff(y).reshape(parts) != 0.0, axis=1)))
+    return {'direction': z[::pieces] / width, 'rate': np.gradient(z[::pieces], sample_period),
+            'between': np.stack((direction, rate), axis=-1), 'stuck': ~moved}
+
+
+@numba.njit(cache=True)
 def _play(x, width):
-    """{'direction': (x - y) / width, 'stuck': y did not move into sample k} with y the play operator:
-    y_k = clip(y_k-1, x_k - width, x_k + width). While the measured position stays within the band, the
-    part is taken to stick."""
+    """y, the play operator on x: y_k = clip(y_k-1, x_k - width, x_k + width) (y_0 = x_0)."""
     y = np.empty_like(x)
-    last = float(x[0])
-    for k, xk in enumerate(x.tolist()):
-        last = min(max(last, xk - width), xk + width)
+    last = x[0]
+    for k in range(x.size):
+        last = min(max(last, x[k] - width), x[k] + width)
         y[k] = last
-    return {'direction': (x - y) / width, 'stuck': np.concatenate(([False], np.diff(y) == 0.0))}
+    return y
 
 
 def _online_force(x, sample_period):

@@ -13,6 +13,7 @@ PARAMETERS = (Parameter('friction_force', 'N', 1.0, lower=0.0, doc='Fc, the leve
 SETTINGS = (Parameter('smoothing_speed', 'm/s', 1e-3, lower=1e-300, doc='v_s, over which the friction reverses'),)
 GRID = np.geomspace(1e-4, 0.1, 10)   # v_s tried, times the record's peak speed; then refined (Candidate.scale)
 SPAN = 5                             # samples each side of the local cubic that estimates the velocity
+PIECES = 8                           # parts of each interval the term is given on between the samples
 
 
 def measured_velocity(data):
@@ -26,10 +27,18 @@ def measured_velocity(data):
     return savgol_filter(x, window, 3, deriv=1, delta=data.sample_period)
 
 
+def at_pieces(values, pieces):
+    """(intervals, pieces): `values` given at the samples, linear over each interval, at the middle of each of its
+    `pieces` equal parts."""
+    share = (np.arange(pieces) + 0.5) / pieces
+    return (1.0 - share) * values[:-1, None] + share * values[1:, None]
+
+
 @dataclasses.dataclass(frozen=True)
 class _Candidate(Candidate):
     """Fc tanh(v / v_s) as a force term, v the measured velocity (measured_velocity), in simulation too; v_s
-    searched over 1e-4 .. 0.1 times the record's peak speed, then refined."""
+    searched over 1e-4 .. 0.1 times the record's peak speed, then refined. Between the samples (force_between) v
+    goes linearly over each interval: a friction steep in v turns within the interval where v crosses zero."""
 
     name: ClassVar[str] = 'smooth_friction'
     parameters, units = of_effect(PARAMETERS)
@@ -38,6 +47,7 @@ class _Candidate(Candidate):
     scale: ClassVar[str] = 'smoothing_speed'
     smoothing_speed: float = 0.0   # m/s
     shape: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
+    between: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
     velocity: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
 
     def variants(self, data):
@@ -49,10 +59,14 @@ class _Candidate(Candidate):
     def at(self, data, value):
         velocity = self.velocity if self.velocity is not None else measured_velocity(data)
         return dataclasses.replace(self, smoothing_speed=float(value), velocity=velocity,
-                                   shape=np.tanh(velocity / float(value)))
+                                   shape=np.tanh(velocity / float(value)),
+                                   between=np.tanh(at_pieces(velocity, PIECES) / float(value))[..., None])
 
     def force(self, s):
         return self.shape[s.index][None]
+
+    def force_between(self, data):
+        return self.between
 
 
 @register_effect

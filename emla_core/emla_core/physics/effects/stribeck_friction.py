@@ -13,8 +13,8 @@ import numpy as np
 
 from ..candidate import Candidate, of_effect
 from ..effect import Effect, Parameter, register_effect
-from .coulomb_friction import _play
-from .smooth_friction import measured_velocity
+from .coulomb_friction import contact, position_noise
+from .smooth_friction import at_pieces, measured_velocity
 
 PARAMETERS = (Parameter('stribeck_force', 'N', 0.5, lower=0.0, doc='dF = Fs - Fc, the excess of the breakaway force'),)
 SETTINGS = (Parameter('stribeck_speed', 'm/s', 0.01, lower=1e-300, doc='v_s, over which the excess fades'),)
@@ -25,7 +25,8 @@ BAND = 6.0                           # the direction's pre-sliding band, in posi
 @dataclasses.dataclass(frozen=True)
 class _Candidate(Candidate):
     """dF d(t) exp(-(v / v_s)^2) as a force term: d the friction direction of coulomb_friction (the play
-    operator on the measured position, band BAND position-noise sigmas: +-1 while sliding), v the measured
+    operator on the measured position, band BAND position-noise sigmas: +-1 while sliding; followed between the
+    samples, coulomb_friction.contact), v the measured
     velocity (smooth_friction.measured_velocity); v_s searched over 1e-3 .. 0.05 times the peak speed (above, it
     would be a Coulomb friction), then
     refined."""
@@ -36,9 +37,11 @@ class _Candidate(Candidate):
     signs: ClassVar[tuple] = (1,)
     scale: ClassVar[str] = 'stribeck_speed'
     stribeck_speed: float = 0.0   # m/s
-    shape: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
+    shape: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)      # at the samples
+    between: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)    # per piece of interval
     velocity: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
     direction: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
+    between_direction: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
 
     def variants(self, data):
         prepared = self._prepared(data)
@@ -49,17 +52,24 @@ class _Candidate(Candidate):
         if self.velocity is not None:
             return self
         x = data.signals['position']
-        noise = max(1.4826 * np.median(np.abs(np.diff(x, 3))) / np.sqrt(20.0), 1e-6 * np.ptp(x))
-        return dataclasses.replace(self, velocity=measured_velocity(data),
-                                   direction=_play(x, BAND * noise)['direction'])
+        noise = position_noise(x)[0]
+        terms = contact(x, BAND * noise, data.sample_period)
+        return dataclasses.replace(self, velocity=measured_velocity(data), direction=terms['direction'],
+                                   between_direction=terms['between'][..., 0])
 
     def at(self, data, value):
         prepared = self._prepared(data)
-        return dataclasses.replace(prepared, stribeck_speed=float(value),
-                                   shape=prepared.direction * np.exp(-(prepared.velocity / float(value)) ** 2))
+        fade = np.exp(-(prepared.velocity / float(value)) ** 2)
+        pieces = prepared.between_direction.shape[1]   # the velocity linear over each interval between the samples
+        between = prepared.between_direction * np.exp(-(at_pieces(prepared.velocity, pieces) / float(value)) ** 2)
+        return dataclasses.replace(prepared, stribeck_speed=float(value), shape=prepared.direction * fade,
+                                   between=between[..., None])
 
     def force(self, s):
         return self.shape[s.index][None]
+
+    def force_between(self, data):
+        return self.between
 
 
 @register_effect
