@@ -13,6 +13,8 @@ mode change. The voltage: levels R I_target held 3-15 ms, I_target uniform in on
 quantised by the ADC's step; the position quantised; the voltage held over [t_k, t_k+1). A coil that warms
 (`resistance_rise`): R rises linearly from its value at t = 0 by that fraction over the record, held over each
 interval at its value at the interval's middle (the voltage levels still ask for currents at the cold R).
+A friction of the armature (`params` friction_force Fc, friction_speed v_s): Fc tanh(v / v_s) against the motion,
+smooth through v = 0 (not the suite's sign, and no sticking: the stops hold the armature).
 
     rec, truth = record(rate=1000.0, seed=3)     # truth: {name: value} of the parameters
 """
@@ -29,17 +31,19 @@ HOLD = (3e-3, 15e-3)                       # s
 RTOL, ATOL = 1e-11, (1e-14, 1e-13, 1e-11)  # psi in V s, x in m, v in m/s
 EDGE = 1e-15                               # m
 STUCK = 1e-9                               # s: a mode change sooner than this after the last is a balance
+FRICTION_SPEED = 5e-3                      # m/s: v_s of the armature's friction Fc tanh(v / v_s), if any
 
 
 def _model(p):
     r, l0, a, g0, m, b, k, f0 = (p[name] for name in TRUTH)
+    fc, vs = p.get('friction_force', 0.0), p.get('friction_speed', FRICTION_SPEED)
 
     def inductance(x):
         return l0 + a / (g0 - x)
 
     def net_force(psi, x, v):
         i = psi / inductance(x)
-        return 0.5 * i * i * a / (g0 - x) ** 2 - b * v - k * x - f0
+        return 0.5 * i * i * a / (g0 - x) ** 2 - b * v - k * x - f0 - fc * np.tanh(v / vs)
 
     def free(t, y, u):
         psi, x, v = y

@@ -41,7 +41,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy.interpolate import CubicSpline
-from scipy.optimize import least_squares
+from scipy.optimize import least_squares, minimize_scalar
 
 from emla_core.data import as_recording
 from emla_core.errors import InputError
@@ -71,6 +71,7 @@ STOP_SHARE = 0.01     # of the stroke: the least clearance from a stop of a forc
 RELIABLE = 0.1        # of the current's noise: the largest error a sample's predicted current may take from the path
 HINT_SAMPLES = 50000  # samples a moving coil's misfit record is tried as a solenoid on
 PASSES = 3            # electrical and mechanical fits in turn (the first on a spline path between the samples)
+FRICTION_SPEEDS = np.concatenate(([0.0], np.geomspace(1e-3, 0.3, 12)))   # v_s tried, times the path's peak speed
 
 
 @dataclass
@@ -88,6 +89,7 @@ class SolenoidResult:
     stroke: tuple
     fit: dict = field(repr=False, default_factory=dict)
     model: str = 'solenoid'
+    settings: dict = field(default_factory=dict)   # fixed per fit: the friction's v_s (m/s) when it has one
 
     def unresolved(self) -> list:
         """The parameters whose one-sigma exceeds UNRESOLVED of their value."""
@@ -110,7 +112,9 @@ class SolenoidResult:
 
     def solenoid(self) -> SolenoidParameters:
         """The identified solenoid as SolenoidParameters, its end stops the record's (`stroke`)."""
-        return SolenoidParameters(**self.parameters, stroke_min=self.stroke[0], stroke_max=self.stroke[1])
+        return SolenoidParameters(**{name: self.parameters[name] for name in SOLENOID_PARAMETER_NAMES},
+                                  stroke_min=self.stroke[0], stroke_max=self.stroke[1],
+                                  friction_force=max(self.parameters.get('coulomb_force', 0.0), 0.0))
 
     def model_file(self, data: str, command: str):
         """The identified solenoid as a model file's Model (emla_core.model_file; `actuator: solenoid`): the
@@ -123,7 +127,7 @@ class SolenoidResult:
 
 def identify_solenoid(data: Recording | Path | str | None = None, *, sample_period: float | None = None,
                       voltage: ArrayLike | None = None, current: ArrayLike | None = None,
-                      position: ArrayLike | None = None) -> SolenoidResult:
+                      position: ArrayLike | None = None, friction: bool = False) -> SolenoidResult:
     """Identify a solenoid's R, L0, a, g0, m, B, k, F0 from a whole record of its voltage, current and position.
 
     Parameters
@@ -135,6 +139,11 @@ def identify_solenoid(data: Recording | Path | str | None = None, *, sample_peri
     voltage, current, position : array_like, optional
         The coil voltage held over each sample interval (V), the current (A) and the armature position (m, +x
         closes the gap) at the interval's start.
+    friction : bool, optional
+        Add a friction of the armature to the force balance, Fc tanh(v / v_s) (`coulomb_force` Fc in N after F0,
+        and `friction_speed` v_s in m/s among the settings: 0 is the dry Fc sign(v)), v along the armature's path
+        between the samples and triangle-weighted like the other forces, v_s the best of FRICTION_SPEEDS times the
+        path's peak speed (the solenoid discrepancy's candidate, solenoid_discrepancy.py).
 
     Returns
     -------
@@ -169,7 +178,7 @@ def identify_solenoid(data: Recording | Path | str | None = None, *, sample_peri
     if not np.ptp(x) > 0:
         raise InputError(f'{source}: the position never changes: the solenoid\'s inductance curve and mechanics '
                          f'need the armature to move')
-    return _identify(u, i, x, ts, source)
+    return _identify(u, i, x, ts, source, friction)
 
 
 def solenoid_hint(recording: Recording) -> str | None:
@@ -191,7 +200,7 @@ def solenoid_hint(recording: Recording) -> str | None:
             f'({1e3 * p["gap"]:.3g} mm - x), force I^2 L\'(x)/2): identify it with --actuator solenoid')
 
 
-def _identify(u, i, x, ts, source):
+def _identify(u, i, x, ts, source, friction=False):
     substeps = 2 * max(1, math.ceil(ts / SUBSTEP / 2))
     stopped = on_stop(x)
     electrical = _start(u, i, x, ts)
@@ -208,15 +217,19 @@ def _identify(u, i, x, ts, source):
         if rows.size < MIN_FREE_ROWS:
             raise InputError(f'{source}: the armature is free on {rows.size} force-balance rows only (at least '
                              f'{MIN_FREE_ROWS} needed): the mechanics need it to move between its stops')
-        mechanical, m_cov, m_residual, phi, stencil = _mechanics(u, i, x, nodes, electrical, ts, substeps, rows)
+        speeds = FRICTION_SPEEDS * np.max(np.abs(np.diff(nodes, axis=1))) * 2 * substeps / ts if friction else ()
+        mechanical, m_cov, m_residual, phi, stencil, speed = _mechanics(u, i, x, nodes, electrical, ts, substeps,
+                                                                        rows, speeds)
     e_cov = _sandwich(jacobian, e_residual, ELECTRICAL_LAGS)
-    gain = np.empty((4, 4))   # d(mechanical)/d(electrical)
+    gain = np.empty((len(mechanical), 4))   # d(mechanical)/d(electrical)
     for j in range(4):
         step = 1e-6 * electrical[j]
         shifted = electrical.copy()
         shifted[j] += step
-        gain[:, j] = (_mechanics(u, i, x, nodes, shifted, ts, substeps, rows)[0] - mechanical) / step
-    covariance = np.zeros((8, 8))
+        gain[:, j] = (_mechanics(u, i, x, nodes, shifted, ts, substeps, rows, () if speed is None else (speed,))[0]
+                      - mechanical) / step
+    names = SOLENOID_PARAMETER_NAMES + (('coulomb_force',) if friction else ())
+    covariance = np.zeros((len(names), len(names)))
     covariance[:4, :4] = e_cov
     covariance[4:, 4:] = m_cov + gain @ e_cov @ gain.T
     covariance[4:, :4] = gain @ e_cov
@@ -226,10 +239,11 @@ def _identify(u, i, x, ts, source):
         raise InputError(f'{source}: the solenoid model gives no finite estimate from these data')
     std = np.sqrt(np.diag(covariance))
     fit = _fit(u, i, x, ts, np.flatnonzero(keep), e_residual, jacobian, electrical, m_residual, phi, rows, stencil)
-    return SolenoidResult(parameters=dict(zip(SOLENOID_PARAMETER_NAMES, map(float, values))),
-                          std=dict(zip(SOLENOID_PARAMETER_NAMES, map(float, std))), covariance=covariance,
+    return SolenoidResult(parameters=dict(zip(names, map(float, values))),
+                          std=dict(zip(names, map(float, std))), covariance=covariance,
                           samples=len(u), sample_period=ts, free_rows=int(rows.size),
-                          stroke=(float(x.min()), float(x.max())), fit=fit)
+                          stroke=(float(x.min()), float(x.max())), fit=fit,
+                          settings={} if speed is None else {'friction_speed': float(speed)})
 
 
 def _electrical(u, i, nodes, start, ts, substeps, keep, x, source):
@@ -400,7 +414,8 @@ def _nodes(u, i, x, stopped, electrical, mechanical, ts, substeps):
     parameters give (`_paths`)."""
     if mechanical is None:
         return _spline_nodes(x, stopped, substeps), _spline_error(x, stopped)
-    kernel = np.concatenate((electrical, mechanical, (x.min(), x.max())))
+    # (KERNEL_SLOTS; a friction as the plant's dry one, its v_s left out)
+    kernel = np.concatenate((electrical, mechanical[:4], (x.min(), x.max(), max(mechanical[4:5].sum(), 0.0))))
     _, nodes, error = _paths(u, float(i[0]), x, stopped, kernel, ts, 2 * substeps)
     return nodes, error
 
@@ -460,38 +475,59 @@ def _triangle_means(values, rows):
     return before @ (simpson * s) + after @ (simpson * (1.0 - s)), after @ simpson - before @ simpson
 
 
-def _mechanics(u, i, x, nodes, electrical, ts, substeps, rows):
-    """(m, B, k, F0), their covariance, the force balance's residual (N), its regressors at `rows` and the stencil
-    by which position noise enters the residual (N/m), the force from the electrical parameters with the armature
-    moved along `nodes`. The covariance is that of white position noise through the stencils (the residuals'
-    own lagged products would cancel to nearly nothing: the second difference holds no noise at low frequency
-    but at the ends of each run of rows)."""
+def _mechanics(u, i, x, nodes, electrical, ts, substeps, rows, speeds=()):
+    """(m, B, k, F0 [, Fc]), their covariance, the force balance's residual (N), its regressors at `rows`, the
+    stencil by which position noise enters the residual (N/m) and the friction's v_s (None without), the force from
+    the electrical parameters with the armature moved along `nodes`; with `speeds`, a friction Fc tanh(v / v_s) (0:
+    sign(v)) along the path, triangle-weighted like the force, v_s the one of `speeds` that leaves the least
+    residual. The covariance is that of white position noise through the stencils (the residuals' own lagged
+    products would cancel to nearly nothing: the second difference holds no noise at low frequency but at the ends
+    of each run of rows)."""
     current = _simulated(u, i, nodes, electrical, ts, substeps)[1]
     position = nodes[:, ::2]
     force = _triangle_means(0.5 * current ** 2 * inductance_slope(position, *electrical[2:]), rows)[0]
     acceleration = (x[rows + 1] - 2.0 * x[rows] + x[rows - 1]) / ts ** 2
     mean_position, rise = _triangle_means(nodes, rows)
     velocity = rise / ts
-    phi = np.column_stack((force, velocity, mean_position, np.ones(rows.size)))
+    columns = [force, velocity, mean_position, np.ones(rows.size)]
+    path_velocity = np.gradient(nodes, axis=1) * (nodes.shape[1] - 1) / ts   # at the half sub-steps
+
+    def with_friction(v_s):
+        friction = np.sign(path_velocity) if v_s == 0 else np.tanh(path_velocity / v_s)
+        return np.column_stack(columns + [_triangle_means(friction, rows)[0]])
+
+    def misfit(v_s):
+        phi = with_friction(v_s)
+        return float(np.sum((acceleration - phi @ np.linalg.lstsq(phi, acceleration, rcond=None)[0]) ** 2))
+    speed = None
+    if len(speeds):
+        grid = [misfit(v_s) for v_s in speeds]
+        j = int(np.argmin(grid))
+        speed = float(speeds[j])
+        if 0 < j < len(speeds) - 1:   # refined between its neighbours (the sign's: as far below as the next above)
+            low = speeds[j - 1] if speeds[j - 1] > 0 else speeds[j] ** 2 / speeds[j + 1]
+            search = minimize_scalar(lambda z: misfit(np.exp(z)), bounds=(np.log(low), np.log(speeds[j + 1])),
+                                     method='bounded', options={'xatol': 1e-3})
+            speed = float(np.exp(search.x)) if search.fun < grid[j] else speed
+    phi = with_friction(speed) if speed is not None else np.column_stack(columns)
     theta, *_ = np.linalg.lstsq(phi, acceleration, rcond=None)
     residual = acceleration - phi @ theta
     mass = 1.0 / theta[0]
-    values = np.array([mass, -theta[1] * mass, -theta[2] * mass, -theta[3] * mass])
+    values = np.concatenate(([mass], -theta[1:] * mass))
     # how position noise q_k-2..q_k+2 enters a row's residual: the second difference less the fitted velocity's
     # and mean position's shares (those of the five-point formulas for the path's means, which pass the samples)
     stencil = (np.array([0.0, 1.0, -2.0, 1.0, 0.0]) / ts ** 2 - theta[1] * np.array([1, -14, 0, 14, -1]) / (24 * ts)
                - theta[2] * np.array([0.0, 1.0, 10.0, 1.0, 0.0]) / 12.0)
-    spread = np.zeros((len(x), 4))   # W: the rows' regressors carried to the samples whose noise they meet
+    spread = np.zeros((len(x), phi.shape[1]))   # W: the rows' regressors carried to the samples whose noise they meet
     for offset, weight in zip(range(-2, 3), stencil):
         spread[rows + offset] += weight * phi
     bread = np.linalg.inv(phi.T @ phi)
     noise = np.mean(residual ** 2) / np.sum(stencil ** 2)   # the position noise's variance (m^2)
     theta_cov = noise * bread @ (spread.T @ spread) @ bread
-    transform = np.array([[-mass ** 2, 0, 0, 0],                                   # d(values)/d(theta)
-                          [theta[1] * mass ** 2, -mass, 0, 0],
-                          [theta[2] * mass ** 2, 0, -mass, 0],
-                          [theta[3] * mass ** 2, 0, 0, -mass]])
-    return values, transform @ theta_cov @ transform.T, residual * mass, phi, stencil * mass
+    transform = -mass * np.eye(len(theta))   # d(values)/d(theta): m = 1/theta_0, the others -theta_j m
+    transform[:, 0] = theta * mass ** 2
+    transform[0, 0] = -mass ** 2
+    return values, transform @ theta_cov @ transform.T, residual * mass, phi, stencil * mass, speed
 
 
 def _sandwich(jacobian, residual, lags):

@@ -4,6 +4,7 @@ import sys
 from pathlib import Path
 
 from emla_core.errors import InputError
+from emla_core.parameters import FAMILIES
 
 from .inputs import DATA_HELP, add_data_arguments, load_data, understood, unknown_figures, warn
 from .output import REPORT, add_force_argument, check_outputs, emit_json, json_text
@@ -40,6 +41,9 @@ def add_arguments(parser):
                         help='comma-separated candidate effects to consider (default: all registered)')
     parser.add_argument('--model-out', metavar='M.yaml',
                         help='write the final model (nominal parameters and the effects named) as a model file')
+    parser.add_argument('--actuator', default='moving_coil', metavar='FAMILY',
+                        help='moving_coil (default) or solenoid (the solenoid model, and a friction of its armature '
+                        'as the candidate: docs/physics.md 9.5)')
     add_force_argument(parser)
     add_data_arguments(parser)
 
@@ -48,6 +52,10 @@ def run(args):
     from emla_core.bag.report import read_warnings
     from emla_identification.discrepancy import CANDIDATES, diagnose
 
+    if args.actuator not in FAMILIES:
+        raise InputError(f'--actuator {args.actuator!r}: choose one of {", ".join(FAMILIES)}')
+    if args.actuator == 'solenoid':
+        return _solenoid(args)
     names = None
     if args.candidates:
         names = [n.strip() for n in args.candidates.split(',') if n.strip()]
@@ -61,7 +69,11 @@ def run(args):
         recording = load_data(args)
     diagnosis = diagnose(recording, names)
     result = {**diagnosis.to_dict(), **understood(recording, 'discrepancy')}
-    result['warnings'] = lost + warn(diagnosis.warnings + unknown_figures(result), 'discrepancy')
+    hints = []
+    if diagnosis.verdict == 'unexplained' and not diagnosis.warnings:   # another actuator family's record?
+        from emla_identification.solenoid import solenoid_hint
+        hints = [hint for hint in (solenoid_hint(recording),) if hint]
+    result['warnings'] = lost + warn(hints + diagnosis.warnings + unknown_figures(result), 'discrepancy')
     files = []
     if args.report:
         files.append((args.report, lambda temporary: _write_report(diagnosis, temporary, json_text(result))))
@@ -73,6 +85,23 @@ def run(args):
             from_fit(diagnosis.final, names, args.data, 'emla ' + ' '.join(sys.argv[1:]), diagnosis.final_std),
             temporary)))
     emit_json(result, args.json, files)
+    return 0
+
+
+def _solenoid(args):
+    """`emla discrepancy --actuator solenoid`: emla_identification.solenoid_discrepancy's JSON."""
+    from emla_core.bag.report import read_warnings
+    from emla_identification.solenoid_discrepancy import diagnose_solenoid
+    given = [flag for flag, value in (('--candidates', args.candidates), ('--report', args.report),
+                                      ('--model-out', args.model_out)) if value is not None]
+    if given:
+        raise InputError(f'{", ".join(given)} applies to the moving coil, not yet to --actuator solenoid')
+    check_outputs({'--json': args.json}, [args.data], args.force)
+    with read_warnings() as lost:
+        recording = load_data(args)
+    result = {**diagnose_solenoid(recording).to_dict(), **understood(recording, 'discrepancy')}
+    result['warnings'] = lost + warn(result['warnings'] + unknown_figures(result), 'discrepancy')
+    emit_json(result, args.json)
     return 0
 
 

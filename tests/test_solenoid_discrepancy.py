@@ -1,0 +1,79 @@
+"""Issue 24, discrepancy for solenoids on the independent generator (tests/solenoid_generator.py, 5 kHz, 2 s, with
+a friction of the armature Fc tanh(v / 5 mm/s) hidden in some records): the solenoid model alone is adequate on a
+clean record, a hidden friction is named with its level and the mechanics re-identified within 3 sigma, and the
+moving coil's analysis of a solenoid's record points at --actuator solenoid."""
+import json
+
+import pytest
+import solenoid_generator as generator
+
+from emla_cli.cli import main
+from emla_core.recording import write_csv
+from emla_identification.solenoid_discrepancy import diagnose_solenoid
+
+MECHANICS = ('mass', 'damping', 'spring_stiffness', 'spring_preload')
+
+
+def test_a_clean_valve_is_adequate():
+    recording, _ = generator.record(duration=2.0, rate=5000.0, seed=3)
+    result = diagnose_solenoid(recording).to_dict()
+    assert result['verdict'] == 'adequate' and result['missing_effect'] == 'none' and result['effects'] == []
+    assert all(d['adequate'] for d in result['disagreement'].values())
+
+
+def _diagnosed(force, seed):
+    recording, truth = generator.record(duration=2.0, rate=5000.0, seed=seed, params={'friction_force': force})
+    result = diagnose_solenoid(recording).to_dict()
+    assert result['verdict'] == 'explained' and result['missing_effect'] == 'friction', result['candidates']
+    return result, truth
+
+
+@pytest.mark.parametrize('force, seed', [(0.05, 8), (0.1, 4)])
+def test_a_hidden_friction_is_named_and_the_mechanics_come_back(force, seed):
+    """0.05 N left the nominal force balance within its noise floor (damping and preload 7 and 8 sigmas off): the
+    friction is tried on every record and named where it is significant."""
+    result, truth = _diagnosed(force, seed)
+    (effect,) = result['effects']
+    assert abs(effect['parameters']['coulomb_force'] - force) < 3.0 * effect['std']['coulomb_force']
+    assert effect['settings']['friction_speed'] > 0.0   # the smooth form found (v_s itself is loosely fixed)
+    for name in MECHANICS:
+        error = result['reidentified_parameters'][name] - truth[name]
+        assert abs(error) < 3.0 * result['reidentified_parameters_std'][name], name
+    assert result['gap_after']['position'] < result['gap_before']['position']
+
+
+def test_a_strong_friction_closes_the_force_balance():
+    """0.3 N: the force balance from 79 times its noise floor (power) to within it, Fc within 5 %."""
+    result, _ = _diagnosed(0.3, 5)
+    assert result['disagreement_nominal']['mechanical']['ratio'] > 10.0
+    assert result['disagreement']['mechanical']['adequate']
+    assert result['effects'][0]['parameters']['coulomb_force'] == pytest.approx(0.3, rel=0.05)
+    assert result['gap_after']['position'] < 0.5 * result['gap_before']['position']
+
+
+@pytest.mark.xfail(strict=True, reason='issue 24 (open): Fc\'s sigma leaves out the uncertainty of the friction\'s '
+                   'smoothing speed (searched, then taken as known): 0.3 N on seed 5 comes out 0.2893 +- 0.0027 N, '
+                   '4.0 sigma low')
+def test_a_strong_frictions_level_is_within_its_sigma():
+    result, _ = _diagnosed(0.3, 5)
+    (effect,) = result['effects']
+    assert abs(effect['parameters']['coulomb_force'] - 0.3) < 3.0 * effect['std']['coulomb_force']
+
+
+def test_the_cli_gives_the_json_and_the_moving_coil_points_at_the_solenoid(tmp_path, capsys):
+    recording, _ = generator.record(duration=2.0, rate=5000.0, seed=4, params={'friction_force': 0.1})
+    path = tmp_path / 'valve.csv'
+    write_csv(recording, path)
+    assert main(['discrepancy', str(path), '--actuator', 'solenoid', '--json', str(tmp_path / 's.json')]) == 0
+    result = json.loads((tmp_path / 's.json').read_text())
+    assert result['actuator'] == 'solenoid' and result['missing_effect'] == 'friction'
+    capsys.readouterr()
+    assert main(['discrepancy', str(path), '--actuator', 'solenoid', '--report', str(tmp_path / 'r')]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and '--report applies to the moving coil' in err[0]
+    clean, _ = generator.record(duration=2.0, rate=5000.0, seed=3)   # the valve as the moving coil sees it
+    write_csv(clean, tmp_path / 'clean.csv')
+    assert main(['discrepancy', str(tmp_path / 'clean.csv'), '--json', str(tmp_path / 'm.json')]) == 0
+    moving = json.loads((tmp_path / 'm.json').read_text())
+    assert moving['verdict'] == 'unexplained'
+    assert any('--actuator solenoid' in line for line in moving['warnings']), moving['warnings']
