@@ -441,6 +441,7 @@ def code_snapshot(revision):
     dest = ROOT / 'out' / 'sweep-code' / sha
     if not (dest / '.complete').exists():
         dest.parent.mkdir(parents=True, exist_ok=True)
+        (dest.parent / 'COLCON_IGNORE').touch()   # copies of the packages: colcon builds the work tree's alone
         with tempfile.TemporaryDirectory(dir=dest.parent) as tmp:
             archive = Path(tmp) / 'code.tar'
             subprocess.run(['git', 'archive', '-o', str(archive), sha, *PACKAGES, 'tests/independent_plant.py'],

@@ -10,7 +10,7 @@ from .data import regression_rows
 from .dependence import SMOOTHING, signals_of
 from .fit import FOLDS
 from .residuals import CONFIDENCE
-from .workflow import MIN_BLOCKS, MIN_SCORE, MIN_SHARE, MIN_T, Diagnosis, localise
+from .workflow import MIN_BLOCKS, MIN_SCORE, MIN_SHARE, MIN_T, MOST, Diagnosis, localise
 
 UNITS = {'current': 'A', 'position': 'm', 'voltage': 'V', 'force': 'N', 'time': 's', 'velocity': 'm/s',
          'acceleration': 'm/s^2', 'current rate': 'A/s', 'force rate': 'N/s', 'voltage rate': 'V/s'}
@@ -187,7 +187,8 @@ def _markdown(diagnosis, before):
     lines += [f'| {s} | {_figure(d["gap_before"][s])} | {_figure(d["gap_after"][s])} |' for s in d['gap_before']]
     lines += ['', 'NRMSE = ||y - yhat|| / ||y - mean(y)||.', '', '![prediction](gap.png)', '',
               '## Candidate effects', '',
-              f'Significant = better on at least {MIN_BLOCKS} of {FOLDS} held-out blocks (sign test), score '
+              f'Significant = better on at least {MIN_BLOCKS} of {FOLDS} held-out blocks (sign test; one fewer '
+              f'for a score of {MOST:g} or more), score '
               f'at least {MIN_SCORE:g} (fraction of the held-out one-step error removed, summed over the '
               f'equations), a parameter at least {MIN_T:g} jackknife sigmas from zero, and parameters of a sign '
               f'physics allows. Named = significant and removing at least {100 * MIN_SHARE:.0f} % of the '

@@ -45,6 +45,25 @@ def nominal_names(data):
     return MODEL_PARAMETERS['mechanical'] if data.kinds == ('force',) else PARAMETER_NAMES
 
 
+@functools.lru_cache(maxsize=64)
+def _linearised(kind, q0, sample_period):
+    """(coefficients, their d/dq, (voltage gains, load gains, their d/dq)) of regression `kind` at the model q0 (a
+    tuple): the same for every Rows linearised about one model, which a workflow makes hundreds of."""
+    q0 = np.array(q0)
+    coefficients, derivative = jacobian(kind, q0, sample_period)
+    if kind == 'force':   # the acceleration per unit force is -1/m over both intervals
+        load_slopes = np.zeros((2, len(q0)))
+        load_slopes[:, 0] = 0.5 / q0[0] ** 2
+        return coefficients, derivative, (np.zeros(2), np.full(2, -0.5 / q0[0]), np.zeros((2, len(q0))), load_slopes)
+    return coefficients, derivative, gains_jacobian(kind, q0, sample_period)
+
+
+@functools.lru_cache(maxsize=64)
+def _piece_gains(kind, q0, sample_period, pieces):
+    """physical.piece_gains_jacobian at the model q0 (a tuple), kept for the Rows linearised about it."""
+    return piece_gains_jacobian(kind, np.array(q0), sample_period, pieces)
+
+
 class Rows:
     """Regression `kind` of `data` linearised about `model` ({name: value}): `phi` and `y` as regressors.rows
     gives them, `nominal` = phi J (the columns of dq), `target` = y - phi g(q0), the candidates' `columns`."""
@@ -53,18 +72,11 @@ class Rows:
         ts = data.sample_period
         self.data, self.kind, self.names = data, kind, nominal_names(data)
         q0 = self.q0 = np.array([model[name] for name in self.names], dtype=float)
-        self._piece_gains = {}
         self.phi, self.y = rows(kind, data.signals, ts)
-        self.coefficients, self.jacobian = jacobian(kind, q0, ts)
+        self.coefficients, self.jacobian, gains = _linearised(kind, tuple(q0), ts)
         self.prediction = self.phi @ self.coefficients
         self.index = regression_rows(data)
-        if kind == 'force':   # the acceleration per unit force is -1/m over both intervals
-            self.voltage_gains, self.load_gains = np.zeros(2), np.full(2, -0.5 / q0[0])
-            self.voltage_slopes = np.zeros((2, len(q0)))
-            self.load_slopes = np.zeros((2, len(q0)))
-            self.load_slopes[:, 0] = 0.5 / q0[0] ** 2
-        else:
-            self.voltage_gains, self.load_gains, self.voltage_slopes, self.load_slopes = gains_jacobian(kind, q0, ts)
+        self.voltage_gains, self.load_gains, self.voltage_slopes, self.load_slopes = gains
 
     @functools.cached_property
     def nominal(self):
@@ -106,9 +118,7 @@ class Rows:
     def _pieces(self, pieces):
         """(voltage, load piece gains, their d/dq) of `pieces` parts per interval (physical.piece_gains) at the
         model the rows are linearised about."""
-        if pieces not in self._piece_gains:
-            self._piece_gains[pieces] = piece_gains_jacobian(self.kind, self.q0, self.data.sample_period, pieces)
-        return self._piece_gains[pieces]
+        return _piece_gains(self.kind, tuple(self.q0), self.data.sample_period, pieces)
 
     def _between(self, between, rows, gains):
         """A force term given between the samples (Candidate.force_between) through the rows' gain of each part of
@@ -141,15 +151,16 @@ class Rows:
 
     def _terms(self, candidates, rows, current):
         """Per candidate: (voltage terms, load-force terms) at each piece of the row (pieces x n x parameters, zero
-        where it has none), and the mean over each interval of the voltage its extra inductance takes,
-        (intervals x n x parameters, or None)."""
+        where it has none, and the load's where it is given between the samples), and the mean over each interval
+        of the voltage its extra inductance takes, (intervals x n x parameters, or None)."""
         pieces = self._electrical(rows, current) if self.kind == 'electrical' else self._samples(rows)
         out = []
         for c in candidates:
             shape = (len(pieces), len(pieces[0].index), len(c.parameters))
             voltage, load = np.zeros(shape), np.zeros(shape)
+            between = c.force_between(self.data) is not None
             for j, state in enumerate(pieces):
-                e, f = c.voltage(state), c.force(state)
+                e, f = c.voltage(state), None if between else c.force(state)
                 if e is not None:
                     voltage[j] = e.T
                 if f is not None:
