@@ -81,3 +81,15 @@ class ResistanceTracker:
     def restart(self) -> None:
         """The next frame does not follow on from the last one (samples were lost): no row spans the gap."""
         self._last = None
+
+    gap = restart   # the name the identifier node gives it (OnlineIdentifier.gap)
+
+    @property
+    def effects(self) -> tuple[str, ...]:
+        """What it estimates, as the identifier node publishes it on /emla/effects."""
+        return ('resistance',)
+
+    def full_estimate(self) -> tuple[dict, dict, tuple]:
+        """({'resistance': R}, {'resistance': one-sigma}, (names, covariance)), as OnlineIdentifier.full_estimate."""
+        return ({'resistance': self.resistance}, {'resistance': self.std},
+                (('resistance',), np.array([[self.std ** 2]])))

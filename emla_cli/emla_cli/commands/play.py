@@ -2,7 +2,7 @@
 
 Messages go out in stamp order (simulated time), paced by their stamps scaled by --rate. --rate 0: as fast
 as a live identifier takes them: at most 50 ms of bag time ahead of its latest estimate (/emla/parameters,
-or /emla/arx_model in ARX mode; stamped with the end of the data it has used), so its frame queues never
+/emla/arx_model in ARX mode, /emla/effects; stamped with the end of the data it has used), so its frame queues never
 overflow; the bag's own /emla/parameters is then not played. Without an identifier, --rate 0 sends everything
 at once.
 /clock follows the stamps, so nodes with use_sim_time run on the bag's time. At the end /emla/plant/done
@@ -37,8 +37,10 @@ PLAYED_TYPES = (SAMPLE_FRAME, PARAMETER_ESTIMATE)
 LEAD = 50_000_000        # ns of bag time --rate 0 runs ahead of the identifier (well within the 1000-frame queues)
 STALL_TIMEOUT = 10.0     # s without progress of the identifier before --rate 0 gives up
 ACK_TIMEOUT = 10.0       # s for the subscribers to acknowledge the last messages
-# The identifier's estimates (grey box, ARX), each stamped with the end of the data it has used
-ESTIMATES = {topics.PARAMETERS_TOPIC: PARAMETER_ESTIMATE, topics.ARX_MODEL_TOPIC: topics.ARX_MODEL}
+# The identifier's estimates (grey box, ARX; a solenoid's R on /emla/effects), each stamped with the end of the data
+# it has used
+ESTIMATES = {topics.PARAMETERS_TOPIC: PARAMETER_ESTIMATE, topics.ARX_MODEL_TOPIC: topics.ARX_MODEL,
+             topics.EFFECTS_TOPIC: topics.EFFECT_ESTIMATE}
 
 
 def add_arguments(parser):

@@ -42,6 +42,7 @@ from emla_core.nodes.param_specs import Spec, declare
 from emla_core.nodes.qos import DIAGNOSTICS_QOS, LATCHED_QOS
 from emla_core.nodes.run import run
 from emla_core.nodes.standard_topics import StandardTopics
+from emla_core.parameters import FAMILIES
 from emla_identification.arx import DEFAULT_ORDERS, DEFAULT_SIGNALS, ArxEstimator
 from emla_identification.online import OnlineIdentifier
 from emla_identification.physical import MODEL_PARAMETERS
@@ -49,6 +50,9 @@ from emla_msgs.msg import ArxModel, EffectEstimate, ParameterEstimate
 
 SPECS = [
     Spec('sample_period', 1e-4, 'sample period Ts of the inputs (the grid of input_topics), s', 1e-6, 1e-2),
+    Spec('actuator', 'moving_coil', 'moving_coil, or solenoid: its coil resistance followed online from the '
+                                    'voltage balance with the inductance curve of `model_file` (a solenoid\'s, '
+                                    'emla identify --actuator solenoid --model-out), on /emla/effects'),
     Spec('model', 'full', f'grey-box model, one of {sorted(MODEL_PARAMETERS)}, or arx (black box: orders, '
                                  'input, output; published on /emla/arx_model)'),
     Spec('forgetting', 1.0, 'RLS forgetting factor lambda (1 = no forgetting), 1', 0.5, 1.0),
@@ -238,7 +242,13 @@ class IdentifierNode(EmlaNode):
         if self.inputs:
             self.POLL_PERIOD = None  # unstamped messages are timed when handled: each as it comes
         memory = dict(sample_period=p.sample_period, forgetting=p.forgetting, memory_time=p.memory_time or None)
-        if self.arx:
+        if p.actuator not in FAMILIES:
+            raise InputError(f'actuator {p.actuator!r} is not one of {", ".join(FAMILIES)}')
+        self.solenoid = p.actuator == 'solenoid'
+        if self.solenoid:
+            self.identifier = solenoid_tracker(p)
+            self.feed = self.identifier.update
+        elif self.arx:
             self.identifier = ArxEstimator(*p.orders, **memory)
             warm_up(ArxEstimator(*p.orders, **memory))
             self.feed = self.feed_arx
@@ -259,7 +269,8 @@ class IdentifierNode(EmlaNode):
         self.counts = SampleCounts(self.signals, self.step)
         self.counts_logged = None  # the totals of the latest warning line about lost or skipped samples
         self.status = None  # the diagnostic status of the latest estimate published, as a function
-        self.estimates = self.create_publisher(ArxModel, topics.ARX_MODEL_TOPIC, LATCHED_QOS) if self.arx \
+        self.estimates = None if self.solenoid else \
+            self.create_publisher(ArxModel, topics.ARX_MODEL_TOPIC, LATCHED_QOS) if self.arx \
             else self.create_publisher(ParameterEstimate, topics.PARAMETERS_TOPIC, LATCHED_QOS)
         self.effect_estimates = None if self.arx or not self.identifier.effects else \
             self.create_publisher(EffectEstimate, topics.EFFECTS_TOPIC, LATCHED_QOS)
@@ -338,7 +349,8 @@ class IdentifierNode(EmlaNode):
             self.prediction_error = float(finite[-1])
 
     def publish(self):
-        self.status = self.publish_arx() if self.arx else self.publish_parameters()
+        self.status = self.publish_arx() if self.arx else self.publish_resistance() if self.solenoid \
+            else self.publish_parameters()
         self.published = self.covered
         self.diagnose()
 
@@ -393,6 +405,33 @@ class IdentifierNode(EmlaNode):
                 KeyValue(key='covariance_trace', value=f'{np.trace(covariance):g}'),
                 KeyValue(key='samples', value=str(self.identifier.samples)),
                 KeyValue(key='residual_rms', value=f'{self.identifier.residual_rms:g}')])
+
+
+    def publish_resistance(self):
+        """Publish a solenoid's R now (/emla/effects); a function that gives its diagnostic status."""
+        values, std, _ = self.identifier.full_estimate()
+        self.effect_estimates.publish(messages.effect_message(self.covered, values, std))
+        samples = self.identifier.samples
+        return lambda: DiagnosticStatus(
+            level=DiagnosticStatus.OK if samples else DiagnosticStatus.WARN, name='emla/identifier',
+            hardware_id='emla', message=f'solenoid: R {values["resistance"]:.6g} ohm from {samples} samples',
+            values=[KeyValue(key='samples', value=str(samples)),
+                    KeyValue(key='resistance_std', value=f'{std["resistance"]:g}')])
+
+
+def solenoid_tracker(p):
+    """The ResistanceTracker of a solenoid's identifier node: the inductance curve of its model_file, the memory
+    of its memory_time (or forgetting)."""
+    from emla_core.model_file import read
+    from emla_identification.solenoid_online import ResistanceTracker
+    if not p.model_file:
+        raise InputError('actuator solenoid needs model_file: a solenoid\'s (emla identify --actuator solenoid '
+                         '--model-out), whose inductance curve the resistance is followed with')
+    if p.model != 'full' or p.effects or p.input_topics:
+        raise InputError('actuator solenoid takes no model, effects or input_topics (it follows R alone)')
+    params = read(p.model_file).require('solenoid', p.model_file).solenoid()
+    memory = p.memory_time or (p.sample_period / (1.0 - p.forgetting) if p.forgetting < 1.0 else 1e6)
+    return ResistanceTracker(params, p.sample_period, memory_time=memory)
 
 
 def _frame_args(cdr):

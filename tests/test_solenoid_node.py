@@ -1,0 +1,50 @@
+"""Issue 24, the identifier node takes the actuator family: with `actuator: solenoid` and a solenoid's model file it
+follows the coil's resistance online from the voltage balance (emla_identification.solenoid_online) on a
+simulated valve's bag played into it, and publishes it on /emla/effects; its last estimate is the offline
+ResistanceTracker's on the same samples."""
+import subprocess
+
+import pytest
+import yaml
+from ros_isolation import VENV_BIN, processes
+
+from emla_core.bag import read_bag
+from emla_core.model_file import read
+from emla_identification.solenoid_online import ResistanceTracker
+
+pytestmark = pytest.mark.timeout(300)
+EMLA = str(VENV_BIN / 'emla')
+SIGNALS = ('/emla/voltage', '/emla/current', '/emla/position')
+
+
+def test_the_identifier_node_follows_a_solenoids_resistance(tmp_path, ros_env):
+    bag, model = tmp_path / 'valve', tmp_path / 'valve.yaml'
+    for argv in (['simulate', '--actuator', 'solenoid', '--duration', '1', '--bag', bag],
+                 ['identify', bag, '--actuator', 'solenoid', '--model-out', model]):
+        subprocess.run([EMLA, *map(str, argv)], check=True, capture_output=True, timeout=120)
+    params = tmp_path / 'identifier.yaml'
+    params.write_text(yaml.safe_dump({'/emla/identifier': {'ros__parameters': {
+        'use_sim_time': True, 'actuator': 'solenoid', 'model_file': str(model), 'sample_period': 2e-4}}}))
+    with processes() as start:
+        identifier = start([EMLA, 'run', 'identifier', '--params-file', str(params)], env=ros_env)
+        play = start([EMLA, 'play', str(bag), '--rate', '0', '--wait', '60', '--topics', *SIGNALS], env=ros_env)
+        _, err = play.communicate(timeout=180)
+        assert play.returncode == 0, err
+        echo = start([EMLA, 'echo', '/emla/effects', '--count', '1', '--timeout', '30'], env=ros_env)
+        out, err = echo.communicate(timeout=60)
+        assert echo.returncode == 0 and identifier.poll() is None, err
+    online = next(yaml.safe_load_all(out))
+    assert online['names'] == ['resistance']
+    recording = read_bag(bag).recording
+    offline = ResistanceTracker(read(model).solenoid(), recording.sample_period, memory_time=1e6)
+    offline.update(*(recording.signals[name] for name in ('voltage', 'current', 'position')))
+    assert online['values'][0] == pytest.approx(offline.resistance, rel=1e-9)
+    assert online['values'][0] == pytest.approx(6.0, rel=1e-3)   # the simulated valve's R
+
+
+def test_a_solenoid_identifier_without_its_model_file_is_one_line(tmp_path, ros_env):
+    params = tmp_path / 'identifier.yaml'
+    params.write_text(yaml.safe_dump({'/emla/identifier': {'ros__parameters': {'actuator': 'solenoid'}}}))
+    out = subprocess.run([EMLA, 'run', 'identifier', '--params-file', str(params)], capture_output=True, text=True,
+                         timeout=60, env=ros_env)
+    assert out.returncode != 0 and 'model_file' in out.stderr and 'Traceback' not in out.stderr
