@@ -31,11 +31,7 @@ def assert_sensible(diagnosis):
 
 
 @pytest.mark.parametrize('effects, delays, named, verdict', [
-    pytest.param(['resistance_drift'], {'current': 3, 'position': 3}, {'sensor_delay', 'resistance_drift'},
-                 'explained', marks=pytest.mark.xfail(strict=True, reason=(
-                     'a known regression (issue 22, open): both are named (the drift since a score of 0.5 or '
-                     'more needs 8 of 10 blocks), but the electrical equation stays 5.4 times its noise floor '
-                     '(the drift\'s first-order heating shape after a 3-sample delay)'))),
+    (['resistance_drift'], {'current': 3, 'position': 3}, {'sensor_delay', 'resistance_drift'}, 'explained'),
     ([make_effect('inductance_saturation'), make_effect('coulomb_friction', force=1.0)], None,
      {'coulomb_friction', 'inductance_saturation'}, None),
 ], ids=['drift+delay', 'saturation+friction'])

@@ -190,6 +190,18 @@ class Data:
         """The measured State at every sample."""
         return State(self, np.arange(len(self)), velocity=self.velocity(), **self.signals)
 
+    def between(self, pieces):
+        """{'position', 'velocity'}: (intervals, pieces) at the middle of each of `pieces` equal parts of every
+        interval, along the cubic spline through the measured positions (kept: a diagnosis asks often)."""
+        key = f'_between_{pieces}'
+        if key not in self.__dict__:
+            from scipy.interpolate import CubicSpline
+            n = len(self)
+            spline = CubicSpline(np.arange(n), self.signals['position'])
+            middles = np.arange(n - 1)[:, None] + (np.arange(pieces) + 0.5) / pieces
+            self.__dict__[key] = {'position': spline(middles), 'velocity': spline(middles, 1) / self.sample_period}
+        return self.__dict__[key]
+
 
 @dataclass
 class State:

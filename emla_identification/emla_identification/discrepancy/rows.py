@@ -15,15 +15,18 @@ held over each interval the row spans (physical.input_gains): an extra voltage d
 gain, a force f (opposing +x) as f times the load's gain, an extra inductance l as phi_k (dg/dL) l.
 
 - Electrical rows (the interval [t_k-1, t_k]): the terms at the middle of each of PIECES equal parts of the
-  interval (mean position, the velocity of its displacement, the current going from the interval's start to its
-  end), each weighted by the row's gain of an input over that part (physical.piece_gains): the row does not
-  weigh an interval's parts equally (a voltage acts on I_k the more the later it comes, through L/R).
-- Mechanical rows (the intervals [t_k-1, t_k+1]): the terms at the measured samples k-1, k, k+1 with the weights
-  (g1 / 3, 2 (g1 + g0) / 3, g0 / 3) of the two intervals' gains g1, g0: the triangle weighting of a force linear
-  between samples, exact for a free mass. The force regression (a measured force) is the case g1 = g0 = -1 / (2 m).
-- A force term that switches within an interval (a friction reversing) may be given between the samples instead
-  (Candidate.force_between: its mean over equal parts of every interval); both kinds of row then take it through
-  their gain of each part, exactly whatever the coil's and the mass's dynamics within the interval.
+  interval (the position and velocity of the cubic spline through the measured positions, the current going from
+  the interval's start to its end), each weighted by the row's gain of an input over that part
+  (physical.piece_gains): the row does not weigh an interval's parts equally (a voltage acts on I_k the more the
+  later it comes, through L/R).
+- Mechanical rows (the intervals [t_k-1, t_k+1]): the terms at the middle of each of MECHANICAL_PIECES parts of
+  both intervals (the spline's position and velocity, the current or force linear between the samples), each
+  weighted by the row's gain of that part: for a free mass the triangle, otherwise the row's own kernel. A spring's
+  k x or a force constant's Km(x) I under a loop hunting at a 2 kHz logger is far from linear between samples.
+  The force regression (a measured force) is the triangle's over -m.
+- A force term that switches within an interval (a friction reversing) or needs the history of the motion (its
+  contact) is given between the samples instead (Candidate.force_between: its mean over eighths of every
+  interval), through the same gains.
 """
 import functools
 
@@ -37,6 +40,7 @@ from .data import State, regression_rows
 
 FLUX_NODES = ((0.5 - 0.5 * 0.6 ** 0.5, 0.5, 0.5 + 0.5 * 0.6 ** 0.5), (5 / 18, 8 / 18, 5 / 18))   # Gauss-Legendre
 PIECES = 8   # parts of an electrical row's interval its terms are taken on, each at its middle (_electrical)
+MECHANICAL_PIECES = 4   # and of each of a mechanical row's two intervals (_samples)
 INSTRUMENT_LAG = 2   # rows: an electrical row's error holds the noise of samples k-1 and k; these hold k-3, k-2
 
 
@@ -204,34 +208,39 @@ class Rows:
         load_slopes, along a last axis): the electrical row's gain of each of the PIECES parts of its interval
         (physical.piece_gains: the row weighs the parts unequally, the back-EMF through L/R the interval's end);
         the mechanical rows' samples k-1, k, k+1 from the two intervals' gains (module doc)."""
-        if self.kind == 'electrical':
-            voltage, load, voltage_slopes, load_slopes = self._pieces(PIECES)
-            return {'voltage_gains': voltage, 'load_gains': load, 'voltage_slopes': voltage_slopes,
-                    'load_slopes': load_slopes}[name][0]
-        gains = getattr(self, name)
-        return np.stack((gains[0] / 3.0, 2.0 * (gains[0] + gains[1]) / 3.0, gains[1] / 3.0))
+        electrical = self.kind == 'electrical'
+        voltage, load, voltage_slopes, load_slopes = self._pieces(PIECES if electrical else MECHANICAL_PIECES)
+        gains = {'voltage_gains': voltage, 'load_gains': load, 'voltage_slopes': voltage_slopes,
+                 'load_slopes': load_slopes}[name]
+        return gains[0] if electrical else gains.reshape((-1,) + gains.shape[2:])   # both intervals' parts in turn
 
     def _electrical(self, rows, current):
-        """[the states along the interval [t_k-1, t_k] at the middle of each of its PIECES parts]: the mean
-        position, the velocity of the displacement, the current going linearly from its start to its end (the
-        measured one; in a prediction, the model's step), so that a term steep in the current (a dead-time drop
-        reversing within a few mA) is taken where it acts within the interval rather than at its mean current."""
-        x = self.data.signals['position']
+        """[the states along the interval [t_k-1, t_k] at the middle of each of its PIECES parts]: the position and
+        velocity of the cubic spline through the measured positions there, the current going linearly from the
+        interval's start to its end (the measured one; in a prediction, the model's step), so that a term steep in
+        the current (a dead-time drop reversing within a few mA) is taken where it acts within the interval rather
+        than at its mean current."""
         k = self.index[rows]
+        between = self.data.between(PIECES)
         start = self.phi[rows, 0] if current is None else current
         end = self.y[rows] if current is None else self._step(rows, start)
-        return [State(self.data, k - 1, position=0.5 * (x[k - 1] + x[k]), velocity=self.phi[rows, 2],
-                      current=start + node * (end - start), voltage=self.phi[rows, 1])
-                for node in (np.arange(PIECES) + 0.5) / PIECES]
-
-    @functools.cached_property
-    def _measured(self):
-        return self.data.state()
+        return [State(self.data, k - 1, position=between['position'][k - 1, m], velocity=between['velocity'][k - 1, m],
+                      current=start + (m + 0.5) / PIECES * (end - start), voltage=self.phi[rows, 1])
+                for m in range(PIECES)]
 
     def _samples(self, rows):
-        """[the measured state at sample k + d for d = -1, 0, 1]."""
-        measured = self._measured
+        """[the states at the middle of each of the MECHANICAL_PIECES parts of the intervals [t_k-1, t_k] and
+        [t_k, t_k+1], in turn]: the cubic spline's position and velocity, the current (or force) linear between
+        its samples, the voltage held. A force along the row is so taken where it acts, through the row's gain of
+        each part: a spring's k x is not linear between the samples of a loop hunting at a 2 kHz logger."""
         k = self.index[rows]
-        return [State(self.data, k + d, position=measured.position[k + d], velocity=measured.velocity[k + d],
-                      **{name: values[k + d] for name, values in self.data.signals.items() if name != 'position'})
-                for d in (-1, 0, 1)]
+        between = self.data.between(MECHANICAL_PIECES)
+        states = []
+        for j in (k - 1, k):
+            for m in range(MECHANICAL_PIECES):
+                share = (m + 0.5) / MECHANICAL_PIECES
+                others = {name: (values[j] if name == 'voltage' else (1.0 - share) * values[j] + share * values[j + 1])
+                          for name, values in self.data.signals.items() if name != 'position'}
+                states.append(State(self.data, j, position=between['position'][j, m],
+                                    velocity=between['velocity'][j, m], **others))
+        return states
