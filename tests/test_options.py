@@ -129,7 +129,7 @@ def test_the_packages_params_files_hold_only_declared_parameters(node):
 @pytest.mark.parametrize('text, message', [
     ('/emla/identifier:\n  ros__parameters: {forgeting: 0.99}\n',
      "unknown parameter 'forgeting' for /emla/identifier (did you mean 'forgetting'?); "
-     "its parameters: actuator, effects"),
+     "its parameters: actuator, current_noise, effects"),
     ('/**:\n  ros__parameters: {modle: arx}\n',
      "unknown parameter 'modle' for /emla/identifier (did you mean 'model'?)"),
     ('/emla/identifer:\n  ros__parameters: {forgetting: 0.99}\n',

@@ -31,6 +31,7 @@ REFERENCE_TOPIC = signal_topic('reference')                               # the 
 PARAMETERS_TOPIC = signal_topic('parameters')                             # the identifier's online estimates
 ARX_MODEL_TOPIC = signal_topic('arx_model')                               # its online ARX model (model arx)
 EFFECTS_TOPIC = signal_topic('effects')                                   # its effects' parameters (with effects)
+POSITION_ESTIMATE_TOPIC = signal_topic('position_estimate')               # a solenoid's position from its coil
 TRUE_PARAMETERS_TOPIC = f'{NAMESPACE}plant/parameters'                    # the simulated plant's true parameters
 DONE_TOPIC = f'{NAMESPACE}plant/done'                                     # the end time of a run
 START_TOPIC = MEASURED_TOPICS['position']   # the plant's start barrier counts this topic's subscriptions
@@ -71,9 +72,10 @@ RECORDED = {
 OPTIONAL = (EFFECTS_TOPIC,)
 # The suite's topics a run does not record, as above: the identifier's in ARX mode (a run's identifier is a
 # grey-box one, for the controller; the recorder's start barrier waits for a publisher of each recorded topic)
-# and the frames of each period in one message, for the loop's nodes (recorded as PLANT_TOPICS, MEASURED_TOPICS).
-UNRECORDED = {ARX_MODEL_TOPIC: (ARX_MODEL, 'latched'), PLANT_FRAMES_TOPIC: (SIGNAL_FRAMES, 'frame'),
-              MEASURED_FRAMES_TOPIC: (SIGNAL_FRAMES, 'frame')}
+# or a solenoid's observer's, and the frames of each period in one message, for the loop's nodes (recorded as
+# PLANT_TOPICS, MEASURED_TOPICS).
+UNRECORDED = {ARX_MODEL_TOPIC: (ARX_MODEL, 'latched'), POSITION_ESTIMATE_TOPIC: (SAMPLE_FRAME, 'frame'),
+              PLANT_FRAMES_TOPIC: (SIGNAL_FRAMES, 'frame'), MEASURED_FRAMES_TOPIC: (SIGNAL_FRAMES, 'frame')}
 
 
 def qos_kind(topic, msgtype):

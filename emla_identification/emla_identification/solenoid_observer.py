@@ -134,7 +134,8 @@ def observe_position(params: SolenoidParameters, sample_period: float, voltage: 
 
 def _observe(p, ts, u, i, noise, tolerance, drift, smooth):
     """The filter over the record, then (`smooth`) the smoother back over it and the positions from its flux."""
-    state, cov, predicted, resting, x, held = _filter(p, ts, u, i, noise, tolerance, drift)
+    state, cov, predicted, resting, x, held = _filter(PositionObserver(p, ts, current_noise=noise, drift=drift,
+                                                                       tolerance=tolerance), u, i)
     if smooth:
         state, cov = _smoothed(state, cov, predicted)
         last, velocity = p.stroke_min, 0.0
@@ -146,42 +147,137 @@ def _observe(p, ts, u, i, noise, tolerance, drift, smooth):
     return PositionEstimate(position=x, flux_linkage=state[:, 0].copy(), resistance=state[:, 1].copy(), held=held)
 
 
-def _filter(p, ts, u, i, noise, tolerance, drift):
-    """The Kalman filter on (psi, R, dR/dt) with the stops as measurements: (filtered states (n, 3), their
-    covariances (n, 3, 3), (predicted states, their covariances, transitions) for the smoother, the stop each
-    sample rests on (-1: none), positions, held flags)."""
-    low, high = p.stroke_min, p.stroke_max
-    margin = MARGIN * (high - low)
+def _filter(observer, u, i):
+    """The observer over the record: (filtered states (n, 3), their covariances (n, 3, 3), (predicted states,
+    their covariances, transitions) for the smoother, the stop each sample rests on (-1: none), positions, held
+    flags)."""
     n = u.size
     states, covs = np.empty((n, 3)), np.empty((n, 3, 3))
     predicted = (np.empty((n, 3)), np.empty((n, 3, 3)), np.empty((n, 3, 3)))
     resting, x, held = np.full(n, -1), np.empty(n), np.zeros(n, bool)
-    state = np.array([p.inductance(low) * i[0], p.resistance, 0.0])   # at rest on the open stop at the start
-    cov = np.diag([(p.inductance(low) * noise) ** 2, (START * p.resistance) ** 2, (drift * p.resistance) ** 2])
-    walk = np.diag([0.0, 0.0, (drift * p.resistance) ** 2 * ts])
-    last, velocity, resting_on = low, 0.0, 0
     for k in range(n):
-        f = np.eye(3)
-        if k:   # the flux over the held interval: the trapezoid of I, corrected for the jump of dI/dt at t_k-1
-            q = 0.5 * ts * (i[k - 1] + i[k]) + ts * ts / 12 * (u[k - 1] - u[k - 2] if k > 1 else 0.0) \
-                / p.inductance(last)
-            state = np.array([state[0] + u[k - 1] * ts - state[1] * q, state[1] + state[2] * ts, state[2]])
-            f = np.array([[1.0, -q, 0.0], [0.0, 1.0, ts], [0.0, 0.0, 1.0]])
-            cov = f @ cov @ f.T + walk
-            cov[0, 0] += (state[1] * noise * ts) ** 2 / 2
-        predicted[0][k], predicted[1][k], predicted[2][k] = state, cov, f
-        raw = _inverted(p, state[0], i[k])
-        stop = _pressed(p, raw, i[k], margin, noise, resting_on)
-        if stop is not None:   # on a stop psi = L(stop) I, measured with the current's noise
-            resting[k] = stop
-            inductance = p.inductance((low, high)[stop])
-            gain = cov[:, 0] / (cov[0, 0] + (inductance * noise) ** 2)
-            state = state + gain * (inductance * i[k] - state[0])
-            cov = cov - np.outer(gain, cov[0])
-        x[k], velocity, held[k] = _place(p, raw, cov[0, 0], i[k], stop, last, velocity, ts, noise, tolerance)
-        states[k], covs[k], last = state, cov, x[k]
-        resting_on = stop if stop is not None else 0 if last <= low else 1 if last >= high else None
+        predicted[0][k], predicted[1][k], predicted[2][k], stop, x[k], held[k] = observer.step(u[k], i[k])
+        states[k], covs[k] = observer.state, observer.cov
+        resting[k] = -1 if stop is None else stop
     return states, covs, predicted, resting, x, held
+
+
+class PositionObserver:
+    """The causal observer, sample by sample (online: the identifier node with `position_observer`): the Kalman
+    filter on (psi, R, dR/dt) with the stops as measurements of the module doc, from rest on the open stop.
+
+    Parameters
+    ----------
+    params : SolenoidParameters
+        The identified solenoid (R at the start, L0, a, g0, the mechanics and the end stops).
+    sample_period : float
+        Ts (s), > 0.
+    current_noise : float
+        The current's noise standard deviation (A), > 0.
+    tolerance : float, optional
+        The largest position noise an inverted sample may take (m; default TOLERANCE of the stroke).
+    drift : float, optional
+        The random walk of R's rate (relative, after 1 s).
+
+    Examples
+    --------
+    >>> observer = PositionObserver(params, 2e-4, current_noise=0.005)      # doctest: +SKIP
+    >>> position, held = observer.update(voltage, current)                 # doctest: +SKIP
+    >>> observer.resistance                                                 # doctest: +SKIP
+    """
+
+    def __init__(self, params: SolenoidParameters, sample_period: float, *, current_noise: float,
+                 tolerance: float | None = None, drift: float = DRIFT) -> None:
+        if not (sample_period > 0 and current_noise > 0):
+            raise InputError(f'the observer needs a positive sample period and current noise, got '
+                             f'{sample_period!r} and {current_noise!r}')
+        stroke = params.stroke_max - params.stroke_min
+        self.params, self.sample_period, self.current_noise = params, float(sample_period), float(current_noise)
+        self.tolerance = TOLERANCE * stroke if tolerance is None else tolerance
+        self.margin = MARGIN * stroke
+        self.drift = drift
+        self.state = self.cov = None   # (psi, R, dR/dt) and its covariance, from the first sample on
+        self.samples = 0
+        self._restart()
+
+    def _restart(self):
+        """Before the first sample: at rest on the open stop."""
+        self._previous = None   # (u_k-1, u_k-2, I_k-1) of the last sample
+        self.last, self.velocity, self.resting_on = self.params.stroke_min, 0.0, 0
+
+    def gap(self) -> None:
+        """Samples were lost (the identifier node's call): no flux is integrated over the gap; the next sample
+        takes it from the last position, with the whole stroke's uncertainty, until a stop anchors it again (R
+        and its rate are kept)."""
+        self._previous, self.velocity, self.resting_on = None, 0.0, None
+
+    def update(self, voltage: ArrayLike, current: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+        """Take a frame of consecutive samples (the voltage held from each sample to the next, the current at
+        each): (the position at each sample (m), held flags)."""
+        u, i = (np.asarray(v, dtype=float).reshape(-1) for v in (voltage, current))
+        position, held = np.empty(u.size), np.zeros(u.size, bool)
+        for k in range(u.size):
+            *_, position[k], held[k] = self.step(u[k], i[k])
+        return position, held
+
+    def step(self, voltage, current):
+        """One sample: (the predicted state, its covariance, the transition, the stop it rests on or None, the
+        position, held)."""
+        p, ts, noise = self.params, self.sample_period, self.current_noise
+        low, high = p.stroke_min, p.stroke_max
+        f = np.eye(3)
+        if self.state is None:   # the first sample: at rest on the open stop
+            self.state = np.array([p.inductance(low) * current, p.resistance, 0.0])
+            self.cov = np.diag([(p.inductance(low) * noise) ** 2, (START * p.resistance) ** 2,
+                                (self.drift * p.resistance) ** 2])
+        elif self._previous is None:   # after a gap: the flux afresh, its uncertainty the whole stroke's
+            self.state = np.array([p.inductance(self.last) * current, self.state[1], self.state[2]])
+            self.cov[0, :] = self.cov[:, 0] = 0.0
+            self.cov[0, 0] = ((p.inductance(high) - p.inductance(low)) * current) ** 2 \
+                + (p.inductance(low) * noise) ** 2
+        else:   # the flux over the held interval: the trapezoid of I, corrected for the jump of dI/dt at t_k-1
+            u1, u2, i1 = self._previous
+            q = 0.5 * ts * (i1 + current) + ts * ts / 12 * (u1 - u2) / p.inductance(self.last)
+            state, cov = self.state, self.cov
+            self.state = np.array([state[0] + u1 * ts - state[1] * q, state[1] + state[2] * ts, state[2]])
+            f = np.array([[1.0, -q, 0.0], [0.0, 1.0, ts], [0.0, 0.0, 1.0]])
+            self.cov = f @ cov @ f.T + np.diag([(self.state[1] * noise * ts) ** 2 / 2, 0.0,
+                                                 (self.drift * p.resistance) ** 2 * ts])
+        ahead, ahead_cov = self.state, self.cov
+        raw = _inverted(p, self.state[0], current)
+        stop = _pressed(p, raw, current, self.margin, noise, self.resting_on)
+        if stop is not None:   # on a stop psi = L(stop) I, measured with the current's noise
+            inductance = p.inductance((low, high)[stop])
+            gain = self.cov[:, 0] / (self.cov[0, 0] + (inductance * noise) ** 2)
+            self.state = self.state + gain * (inductance * current - self.state[0])
+            self.cov = self.cov - np.outer(gain, self.cov[0])
+        position, self.velocity, held = _place(p, raw, self.cov[0, 0], current, stop, self.last, self.velocity, ts,
+                                               noise, self.tolerance)
+        self.last = position
+        self.resting_on = stop if stop is not None else 0 if position <= low else 1 if position >= high else None
+        self._previous = (voltage, self._previous[0] if self._previous else voltage, current)
+        self.samples += 1
+        return ahead, ahead_cov, f, stop, position, held
+
+    @property
+    def resistance(self) -> float:
+        """R as tracked now (ohm; the identified one before the first sample)."""
+        return float(self.params.resistance if self.state is None else self.state[1])
+
+    @property
+    def std(self) -> float:
+        """Its one-sigma (ohm)."""
+        return float(START * self.params.resistance if self.cov is None else math.sqrt(max(self.cov[1, 1], 0.0)))
+
+    @property
+    def effects(self) -> tuple[str, ...]:
+        """What it estimates besides the position, as the identifier node publishes it on /emla/effects."""
+        return ('resistance',)
+
+    def full_estimate(self) -> tuple[dict, dict, tuple]:
+        """({'resistance': R}, {'resistance': one-sigma}, (names, covariance)), as OnlineIdentifier.full_estimate."""
+        return ({'resistance': self.resistance}, {'resistance': self.std},
+                (('resistance',), np.array([[self.std ** 2]])))
 
 
 def _smoothed(state, cov, predicted):

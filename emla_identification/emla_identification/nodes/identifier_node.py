@@ -3,7 +3,9 @@ or with model `arx` a black-box ARX(na, nb, nk) model of one signal's response t
 the recursion of `emla identify --model arx`: from theta = 0 and P = 1e6 I, with the same forgetting).
 
 Publishes /emla/parameters (latched; with model arx /emla/arx_model instead: a, b, poles, zeros, fit and MSE;
-with `effects` or a `model_file` also /emla/effects, the effects' parameters estimated along, same stamps)
+with `effects` or a `model_file` also /emla/effects, the effects' parameters estimated along, same stamps; with
+`actuator: solenoid` the coil's R on /emla/effects alone, and with `position_observer` the armature's position
+estimated from the voltage and current, without a position input, on /emla/position_estimate, a frame per frame in)
 at every multiple of `publish_period` that ends a control period, stamped with the end of the data used, and a
 final estimate at the end time /emla/plant/done announces (see emla_core.nodes); /diagnostics with the
 first estimate, then every second of sample time, and with the final one. Bad frames (see emla_core.nodes) are
@@ -39,20 +41,25 @@ from emla_core.nodes.faults import Faults
 from emla_core.nodes.frames import subscribe_frames, subscribe_signal_frames
 from emla_core.nodes.node import EmlaNode
 from emla_core.nodes.param_specs import Spec, declare
-from emla_core.nodes.qos import DIAGNOSTICS_QOS, LATCHED_QOS
+from emla_core.nodes.qos import DIAGNOSTICS_QOS, FRAME_QOS, LATCHED_QOS
 from emla_core.nodes.run import run
 from emla_core.nodes.standard_topics import StandardTopics
 from emla_core.parameters import FAMILIES
 from emla_identification.arx import DEFAULT_ORDERS, DEFAULT_SIGNALS, ArxEstimator
 from emla_identification.online import OnlineIdentifier
 from emla_identification.physical import MODEL_PARAMETERS
-from emla_msgs.msg import ArxModel, EffectEstimate, ParameterEstimate
+from emla_msgs.msg import ArxModel, EffectEstimate, ParameterEstimate, SampleFrame
 
 SPECS = [
     Spec('sample_period', 1e-4, 'sample period Ts of the inputs (the grid of input_topics), s', 1e-6, 1e-2),
     Spec('actuator', 'moving_coil', 'moving_coil, or solenoid: its coil resistance followed online from the '
                                     'voltage balance with the inductance curve of `model_file` (a solenoid\'s, '
                                     'emla identify --actuator solenoid --model-out), on /emla/effects'),
+    Spec('position_observer', False, 'actuator solenoid without a position sensor: the armature\'s position '
+                                     'estimated from the coil\'s voltage and current alone (its flux linkage, R '
+                                     'tracked at the end stops), on /emla/position_estimate; needs current_noise'),
+    Spec('current_noise', 0.0, 'position_observer: the current\'s noise standard deviation (emla identify '
+                               '--actuator solenoid --json: fit.electrical.rms / R), A', 0.0, 10.0),
     Spec('model', 'full', f'grey-box model, one of {sorted(MODEL_PARAMETERS)}, or arx (black box: orders, '
                                  'input, output; published on /emla/arx_model)'),
     Spec('forgetting', 1.0, 'RLS forgetting factor lambda (1 = no forgetting), 1', 0.5, 1.0),
@@ -245,9 +252,13 @@ class IdentifierNode(EmlaNode):
         if p.actuator not in FAMILIES:
             raise InputError(f'actuator {p.actuator!r} is not one of {", ".join(FAMILIES)}')
         self.solenoid = p.actuator == 'solenoid'
+        if p.position_observer and not self.solenoid:
+            raise InputError('position_observer is for actuator solenoid (a moving coil\'s position is measured)')
         if self.solenoid:
             self.identifier = solenoid_tracker(p)
             self.feed = self.identifier.update
+            if p.position_observer:
+                self.signals = ('voltage', 'current')
         elif self.arx:
             self.identifier = ArxEstimator(*p.orders, **memory)
             warm_up(ArxEstimator(*p.orders, **memory))
@@ -274,6 +285,8 @@ class IdentifierNode(EmlaNode):
             else self.create_publisher(ParameterEstimate, topics.PARAMETERS_TOPIC, LATCHED_QOS)
         self.effect_estimates = None if self.arx or not self.identifier.effects else \
             self.create_publisher(EffectEstimate, topics.EFFECTS_TOPIC, LATCHED_QOS)
+        self.position_estimates = self.create_publisher(SampleFrame, topics.POSITION_ESTIMATE_TOPIC, FRAME_QOS) \
+            if self.solenoid and p.position_observer else None
         self.diagnostics = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS_TOPIC, DIAGNOSTICS_QOS)
         faults = SampleFaults(self)
         together = p.measured_frames and not self.inputs
@@ -326,7 +339,10 @@ class IdentifierNode(EmlaNode):
         for first, last in finite_runs(usable):
             if start + first * self.step != self.fed:
                 self.identifier.gap()
-            self.feed(*(signal[first:last] for signal in signals))
+            fed = self.feed(*(signal[first:last] for signal in signals))
+            if self.position_estimates:   # the observer's (positions, held flags)
+                self.position_estimates.publish(messages.frame_message(start + first * self.step, self.sample_period,
+                                                                       fed[0]))
             self.counts.use(last - first)
             self.fed = start + last * self.step
         self.covered = start + len(usable) * self.step
@@ -420,9 +436,11 @@ class IdentifierNode(EmlaNode):
 
 
 def solenoid_tracker(p):
-    """The ResistanceTracker of a solenoid's identifier node: the inductance curve of its model_file, the memory
-    of its memory_time (or forgetting)."""
+    """What a solenoid's identifier node runs, with the model of its model_file: the PositionObserver with
+    position_observer (its current_noise), else the ResistanceTracker with the memory of its memory_time (or
+    forgetting)."""
     from emla_core.model_file import read
+    from emla_identification.solenoid_observer import PositionObserver
     from emla_identification.solenoid_online import ResistanceTracker
     if not p.model_file:
         raise InputError('actuator solenoid needs model_file: a solenoid\'s (emla identify --actuator solenoid '
@@ -430,6 +448,11 @@ def solenoid_tracker(p):
     if p.model != 'full' or p.effects or p.input_topics:
         raise InputError('actuator solenoid takes no model, effects or input_topics (it follows R alone)')
     params = read(p.model_file).require('solenoid', p.model_file).solenoid()
+    if p.position_observer:
+        if not p.current_noise > 0:
+            raise InputError('position_observer needs current_noise: the current\'s noise standard deviation, A '
+                             '(emla identify --actuator solenoid --json: fit.electrical.rms / R)')
+        return PositionObserver(params, p.sample_period, current_noise=p.current_noise)
     memory = p.memory_time or (p.sample_period / (1.0 - p.forgetting) if p.forgetting < 1.0 else 1e6)
     return ResistanceTracker(params, p.sample_period, memory_time=memory)
 
