@@ -33,6 +33,7 @@ from emla_core.errors import InputError
 from emla_core.physics.solenoid import SOLENOID_PARAMETER_NAMES, SolenoidParameters
 
 from .solenoid import SolenoidResult
+from .solenoid_online import ResistanceEstimate
 
 DRIFT = 0.01        # 1/s^1.5: the random walk of R's rate, relative: its standard deviation after one second
 START = 0.05        # R's relative standard deviation at the start (the bench's R, the coil perhaps warmer)
@@ -162,7 +163,7 @@ def _filter(observer, u, i):
     return states, covs, predicted, resting, x, held
 
 
-class PositionObserver:
+class PositionObserver(ResistanceEstimate):
     """The causal observer, sample by sample (online: the identifier node with `position_observer`): the Kalman
     filter on (psi, R, dR/dt) with the stops as measurements of the module doc, from rest on the open stop.
 
@@ -268,16 +269,6 @@ class PositionObserver:
     def std(self) -> float:
         """Its one-sigma (ohm)."""
         return float(START * self.params.resistance if self.cov is None else math.sqrt(max(self.cov[1, 1], 0.0)))
-
-    @property
-    def effects(self) -> tuple[str, ...]:
-        """What it estimates besides the position, as the identifier node publishes it on /emla/effects."""
-        return ('resistance',)
-
-    def full_estimate(self) -> tuple[dict, dict, tuple]:
-        """({'resistance': R}, {'resistance': one-sigma}, (names, covariance)), as OnlineIdentifier.full_estimate."""
-        return ({'resistance': self.resistance}, {'resistance': self.std},
-                (('resistance',), np.array([[self.std ** 2]])))
 
 
 def _smoothed(state, cov, predicted):

@@ -24,7 +24,22 @@ from emla_core.physics.solenoid import SolenoidParameters
 from .rls import RecursiveLeastSquares
 
 
-class ResistanceTracker:
+class ResistanceEstimate:
+    """What a solenoid's identifier node publishes on /emla/effects of an estimator with `resistance` and `std`
+    (ohm): ResistanceTracker, solenoid_observer.PositionObserver."""
+
+    @property
+    def effects(self) -> tuple[str, ...]:
+        """The names it publishes."""
+        return ('resistance',)
+
+    def full_estimate(self) -> tuple[dict, dict, tuple]:
+        """({'resistance': R}, {'resistance': one-sigma}, (names, covariance)), as OnlineIdentifier.full_estimate."""
+        return ({'resistance': self.resistance}, {'resistance': self.std},
+                (('resistance',), np.array([[self.std ** 2]])))
+
+
+class ResistanceTracker(ResistanceEstimate):
     """R of a solenoid from frames of its voltage, current and position (SI units).
 
     Parameters
@@ -83,13 +98,3 @@ class ResistanceTracker:
         self._last = None
 
     gap = restart   # the name the identifier node gives it (OnlineIdentifier.gap)
-
-    @property
-    def effects(self) -> tuple[str, ...]:
-        """What it estimates, as the identifier node publishes it on /emla/effects."""
-        return ('resistance',)
-
-    def full_estimate(self) -> tuple[dict, dict, tuple]:
-        """({'resistance': R}, {'resistance': one-sigma}, (names, covariance)), as OnlineIdentifier.full_estimate."""
-        return ({'resistance': self.resistance}, {'resistance': self.std},
-                (('resistance',), np.array([[self.std ** 2]])))
