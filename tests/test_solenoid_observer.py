@@ -70,6 +70,8 @@ def test_online_frame_by_frame_and_after_lost_samples(bench):
     after, _ = observer.update(u[half + lost:], i[half + lost:])
     assert np.sqrt(np.mean((after[settle:] - x[half + lost + settle:]) ** 2)) < 0.04 * STROKE
     assert observer.resistance == pytest.approx(truth['resistance'] * (1 + RISE), rel=2e-3)
+    with pytest.raises(InputError, match='finite voltage and current of one length'):
+        observer.update(u[:3], np.r_[i[:2], np.nan])
 
 
 def test_bad_input_is_one_clear_error(bench):

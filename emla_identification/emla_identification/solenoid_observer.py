@@ -126,9 +126,6 @@ def observe_position(params: SolenoidParameters, sample_period: float, voltage: 
     for name, values in (('voltage', u), ('current', i)):
         if not np.all(np.isfinite(values)):
             raise InputError(f'non-finite {name} at sample {int(np.argmax(~np.isfinite(values)))}')
-    if not (sample_period > 0 and current_noise > 0):
-        raise InputError(f'the observer needs a positive sample period and current noise, got {sample_period!r} '
-                         f'and {current_noise!r}')
     return _observe(params, sample_period, u, i, current_noise, tolerance * (params.stroke_max - params.stroke_min),
                     drift, smooth)
 
@@ -199,12 +196,8 @@ class PositionObserver(ResistanceEstimate):
         self.drift = drift
         self.state = self.cov = None   # (psi, R, dR/dt) and its covariance, from the first sample on
         self.samples = 0
-        self._restart()
-
-    def _restart(self):
-        """Before the first sample: at rest on the open stop."""
         self._previous = None   # (u_k-1, u_k-2, I_k-1) of the last sample
-        self.last, self.velocity, self.resting_on = self.params.stroke_min, 0.0, 0
+        self.last, self.velocity, self.resting_on = params.stroke_min, 0.0, 0   # at rest on the open stop
 
     def gap(self) -> None:
         """Samples were lost (the identifier node's call): no flux is integrated over the gap; the next sample
@@ -214,8 +207,12 @@ class PositionObserver(ResistanceEstimate):
 
     def update(self, voltage: ArrayLike, current: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """Take a frame of consecutive samples (the voltage held from each sample to the next, the current at
-        each): (the position at each sample (m), held flags)."""
+        each): (the position at each sample (m), held flags). InputError for arrays of different lengths or
+        non-finite values."""
         u, i = (np.asarray(v, dtype=float).reshape(-1) for v in (voltage, current))
+        if u.shape != i.shape or not (np.all(np.isfinite(u)) and np.all(np.isfinite(i))):
+            raise InputError(f'the observer takes finite voltage and current of one length (a gap() between '
+                             f'runs of them), got {u.size} and {i.size} samples')
         position, held = np.empty(u.size), np.zeros(u.size, bool)
         for k in range(u.size):
             *_, position[k], held[k] = self.step(u[k], i[k])
