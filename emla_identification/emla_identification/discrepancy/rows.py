@@ -207,7 +207,7 @@ class Rows:
         """Each piece's weight of the gains `name` (voltage_gains, load_gains, or their d/dq: voltage_slopes,
         load_slopes, along a last axis): the electrical row's gain of each of the PIECES parts of its interval
         (physical.piece_gains: the row weighs the parts unequally, the back-EMF through L/R the interval's end);
-        the mechanical rows' samples k-1, k, k+1 from the two intervals' gains (module doc)."""
+        the mechanical rows' of each of the MECHANICAL_PIECES parts of both intervals, in turn (module doc)."""
         electrical = self.kind == 'electrical'
         voltage, load, voltage_slopes, load_slopes = self._pieces(PIECES if electrical else MECHANICAL_PIECES)
         gains = {'voltage_gains': voltage, 'load_gains': load, 'voltage_slopes': voltage_slopes,
