@@ -24,6 +24,7 @@ from emla_identification.checks import missing_signals
 from emla_identification.regressors import HISTORY, LEAD, default_model, regressions_for
 
 THIRAN_ORDER = 3       # of the all-pass that moves a smooth signal by a fraction of a sample
+PARTS = 32              # equal parts of an interval a re-aligned voltage is described on (Data.voltage_parts)
 MAX_DELAY = 8          # samples a sensor delay may have; the last MAX_DELAY samples are kept for re-alignment
 MIN_SAMPLES = 400      # below this neither the statistics nor the k-step predictions mean much
 
@@ -39,6 +40,9 @@ class Data:
     kinds: tuple           # regressions of regressors.py: ('electrical', 'mechanical') or ('force',)
     source: str = ''
     shaping: dict = field(default_factory=dict)   # name -> FIR taps a re-alignment applied to its noise
+    # the voltage's mean over each of PARTS parts of every interval (window and spare: samples x PARTS) where a
+    # re-alignment left it not held over the interval (the exact rows take it so, rows.py); None: held
+    voltage_parts: np.ndarray = None
     max_delay: ClassVar[int] = MAX_DELAY
 
     @classmethod
@@ -109,12 +113,14 @@ class Data:
                 raise ValueError(f'cannot undo a delay of {d:g} samples on {name!r}')
         c = delays.get(self.drive, 0.0) % 1.0
         signals, spare, shaping = dict(self.signals), dict(self.spare), dict(self.shaping)
+        parts = self.voltage_parts
         n = len(self)
         for name in self.signals:
             full = np.concatenate((self.signals[name], self.spare[name]))
             if name == 'voltage':
-                if c:   # the held voltage over [t_k - c Ts, t_k+1 - c Ts]
-                    full = c * np.concatenate((full[:1], full[:-1])) + (1.0 - c) * full
+                if c:   # the voltage over [t_k - c Ts, t_k+1 - c Ts], by parts
+                    parts = _parts_later(self._parts(), c)
+                    full = parts.mean(axis=1)
             else:
                 shift = delays.get(name, 0.0) - c
                 if shift == round(shift):
@@ -122,7 +128,13 @@ class Data:
                 else:
                     full = _advanced(full, shift)
             signals[name], spare[name] = full[:n], full[n:]
-        return replace(self, signals=signals, spare=spare, shaping=shaping)
+        return replace(self, signals=signals, spare=spare, shaping=shaping, voltage_parts=parts)
+
+    def _parts(self):
+        """The voltage's mean over each of PARTS parts of every interval (samples x PARTS, window and spare)."""
+        if self.voltage_parts is not None:
+            return self.voltage_parts
+        return np.repeat(np.concatenate((self.signals['voltage'], self.spare['voltage']))[:, None], PARTS, axis=1)
 
     def unfiltered(self, name, time_constant):
         """Data in which `name` (a sensed signal) is taken to have passed a first-order low-pass, tau dy/dt =
@@ -148,15 +160,19 @@ class Data:
         a = math.exp(-self.sample_period / tau)
         ratio = tau / self.sample_period
         signals, spare, shaping = dict(self.signals), dict(self.spare), dict(self.shaping)
+        parts = self.voltage_parts
         n = len(self)
         full = {k: np.concatenate((self.signals[k], self.spare[k])) for k in self.signals}
         if name == self.drive:
             for other in (k for k in self.signals if k != name):
                 w = full[other]
-                if other == 'voltage':   # y_k+1 = a y_k + (1 - a) u_k; interval mean u_k + (y_k - u_k) tau (1 - a) / Ts
-                    y = lfilter([1.0 - a], [1.0, -a], w, zi=[a * w[0]])[0]
-                    start = np.concatenate((w[:1], y[:-1]))
-                    full[other] = w + (start - w) * ratio * (1.0 - a)
+                if other == 'voltage':   # each part held: y_end = b y_start + (1 - b) u,
+                    # its mean u + (y_start - u) T (1 - b), T = PARTS tau / Ts (tau in parts)
+                    b, fine = a ** (1.0 / PARTS), self._parts().ravel()
+                    y = lfilter([1.0 - b], [1.0, -b], fine, zi=[b * fine[0]])[0]
+                    start = np.concatenate((fine[:1], y[:-1]))
+                    parts = (fine + (start - fine) * ratio * PARTS * (1.0 - b)).reshape(-1, PARTS)
+                    full[other] = parts.mean(axis=1)
                 else:
                     weights = _filter_weights(a, ratio)
                     padded = np.concatenate((w[:1], w, np.repeat(w[-1:], 2)))
@@ -175,7 +191,7 @@ class Data:
             shaping[name] = np.convolve(shaping.get(name, [1.0]), [-c, 1.0, c])
         for k in self.signals:
             signals[k], spare[k] = full[k][:n], full[k][n:]
-        return replace(self, signals=signals, spare=spare, shaping=shaping)
+        return replace(self, signals=signals, spare=spare, shaping=shaping, voltage_parts=parts)
 
     def velocity(self):
         """Point velocity at every sample: five-point central difference (exact for cubic motion).
@@ -237,6 +253,17 @@ def _advanced(values, shift, order=THIRAN_ORDER):
     moved = np.concatenate((values[whole:], np.repeat(values[-1:], whole))) if whole >= 0 else \
         np.concatenate((np.repeat(values[:1], -whole), values[:whole]))
     return lfilter(a[::-1], a, moved, zi=lfilter_zi(a[::-1], a) * moved[0])[0]
+
+
+def _parts_later(parts, c):
+    """Parts (samples x PARTS means of a voltage over each interval's parts) of the same voltage taken `c` (0..1)
+    samples later, exact for a voltage held over each part: c PARTS = w + f parts, so each new part overlaps the
+    old part w + 1 back by f and the one w back by 1 - f. Before the record, the first value held."""
+    fine = parts.ravel()
+    whole, f = divmod(c * PARTS, 1.0)
+    padded = np.concatenate((np.repeat(fine[:1], int(whole) + 1), fine))
+    n = len(fine)
+    return ((1.0 - f) * padded[1:n + 1] + f * padded[:n]).reshape(parts.shape)
 
 
 def _filter_weights(a, tau):

@@ -112,6 +112,7 @@ class Fit(ModelOnData):
     heldout: np.ndarray    # (FOLDS, kinds): weighted residual sum of squares of each block when left out
     std: dict              # the nominal parameters' jackknife one-sigma
     left_out: np.ndarray   # (FOLDS, unknowns): the fit without each block ([dq | added])
+    kept: np.ndarray       # (FOLDS,): weighted residual sum of squares of each such fit on the blocks it kept
     bounds: np.ndarray     # regression rows of each block: bounds[f] .. bounds[f + 1]
     degrees_of_freedom: int  # of each equation's rows: rows less unknowns
 
@@ -129,8 +130,9 @@ class Fit(ModelOnData):
         return out
 
 
-def fit(data, candidates=(), reference=None, *, relinearise=True):
-    """Nominal + candidates fitted to data, linearised about the model `reference` (a Fit) was and weighted like it.
+def fit(data, candidates=(), reference=None, *, relinearise=True, about=None):
+    """Nominal + candidates fitted to data, linearised about the model `reference` (a Fit) was, or about `about`
+    ({name: value}) where given, and weighted like `reference`.
 
     Without a reference, the nominal model is fitted and serves as one: one Gauss-Newton step from the grey-box
     identification's estimate (the exact rows' minimum distance; the step is within the noise when the model fits,
@@ -144,16 +146,16 @@ def fit(data, candidates=(), reference=None, *, relinearise=True):
         reference = nominal_fit(data)
         if not candidates:
             return reference
-    result = _solve(data, candidates, reference.linearised_about, reference.sigma)
+    result = solve(data, candidates, reference.linearised_about if about is None else about, reference.sigma)
     return _refined(data, candidates, result) if relinearise else result
 
 
 def nominal_fit(data, start=None):
     """The nominal model fitted to data, linearised about `start` ({name: value}; default: the grey-box
     identification's estimate), weighted by its residuals there first, then by the fit's own."""
-    start = _start(data) if start is None else start
+    start = greybox_start(data) if start is None else start
     weights = {kind: _rms(target) for kind, (_, target, _) in design(data, start, ()).items()}
-    return _solve(data, (), start, _solve(data, (), start, weights).rms)
+    return solve(data, (), start, solve(data, (), start, weights).rms)
 
 
 def _refined(data, candidates, result):
@@ -166,7 +168,7 @@ def _refined(data, candidates, result):
     for _ in range(RELINEARISATIONS):
         if not physical(result.parameters):
             break
-        refit = _solve(data, candidates, result.parameters, result.sigma, added=result.added)
+        refit = solve(data, candidates, result.parameters, result.sigma, added=result.added)
         if not physical(refit.parameters):
             break
         gain, result = _chi_square(result, refit.rms) - _chi_square(refit, refit.rms), refit
@@ -180,7 +182,7 @@ def _chi_square(fit, scale):
     return sum((fit.rms[kind] / scale[kind]) ** 2 for kind in fit.rms) * fit.degrees_of_freedom
 
 
-def _start(data):
+def greybox_start(data):
     """The nominal parameters the first fit is linearised about: the grey-box identification's (exact rows,
     minimum distance from several starts, so the Gauss-Newton refits begin near the optimum)."""
     from emla_identification.greybox import identify  # here: greybox's fit check imports this package
@@ -194,16 +196,18 @@ def _start(data):
     return result.parameters
 
 
-def with_systematic(fit, alternatives=SYSTEMATIC_PREFILTERS):
+def with_systematic(fit, std=None, added_std=None, alternatives=SYSTEMATIC_PREFILTERS):
     """(std of the nominal parameters, std of the added ones) of a Fit with a systematic part: the largest
     change of each estimate when the mechanical rows are prefiltered otherwise (a prefilter weighs the
     frequencies differently; estimates that move with it carry a misfit bias the jackknife cannot see),
-    added in quadrature to the jackknife sigma."""
-    alternatives = [_solve(fit.data, fit.candidates, fit.linearised_about, fit.sigma, rho, fit.linearised_added)
+    added in quadrature to the jackknife sigma (the fit's own, or `std` and `added_std` where given)."""
+    std = fit.std if std is None else std
+    added_std = fit.added_std if added_std is None else added_std
+    alternatives = [solve(fit.data, fit.candidates, fit.linearised_about, fit.sigma, rho, fit.linearised_added)
                     for rho in alternatives]
     shift = {k: max(abs(a.parameters[k] - fit.parameters[k]) for a in alternatives) for k in fit.std}
     added_shift = np.max([np.abs(a.added - fit.added) for a in alternatives], axis=0) if len(fit.added) else fit.added
-    return ({k: float(np.hypot(s, shift[k])) for k, s in fit.std.items()}, np.hypot(fit.added_std, added_shift))
+    return ({k: float(np.hypot(s, shift[k])) for k, s in std.items()}, np.hypot(added_std, added_shift))
 
 
 def physical(parameters):
@@ -212,7 +216,7 @@ def physical(parameters):
         all(parameters.get(name, 1.0) > 0 for name in ('resistance', 'inductance', 'mass'))
 
 
-def _solve(data, candidates, model, sigma, rho=PREFILTER, added=None):
+def solve(data, candidates, model, sigma, rho=PREFILTER, added=None):
     """The Fit of `candidates` about `model` (and their parameters `added`) with row weights 1/sigma (module doc)."""
     blocks = design(data, model, candidates, rho, added)
     kinds = tuple(blocks)
@@ -237,6 +241,7 @@ def _solve(data, candidates, model, sigma, rho=PREFILTER, added=None):
     left_out = np.array([_solve_normal(total_w - instrumented[f].sum(axis=0), total - sums[f].sum(axis=0), n)
                          for f in range(FOLDS)])
     heldout = np.array([[_rss(sums[f, j], t, n) for j in range(len(kinds))] for f, t in enumerate(left_out)])
+    kept = np.array([_rss(total - sums[f].sum(axis=0), t, n) for f, t in enumerate(left_out)])
     # residual std of each equation, floored for noise-free data (it becomes a row weight)
     rms = {kind: sigma[kind] * max(np.sqrt(max(_rss(sums[:, j].sum(axis=0), theta, n), 0.0) / (len(index) - n)),
                                    1e-9 * np.sqrt(sums[:, j, n, n].sum() / len(index)))
@@ -245,9 +250,9 @@ def _solve(data, candidates, model, sigma, rho=PREFILTER, added=None):
     width = len(names)
     return Fit(data=data, candidates=candidates, shift=theta[:width], added=theta[width:],
                parameters=dict(zip(names, map(float, q0 + theta[:width])), sample_period=data.sample_period),
-               linearised_about={name: model[name] for name in names}, added_std=_jackknife_std(left_out[:, width:]),
+               linearised_about={name: model[name] for name in names}, added_std=jackknife_std(left_out[:, width:]),
                sigma=sigma, rms=rms, heldout=heldout,
-               std=dict(zip(names, map(float, _jackknife_std(left_out[:, :width])))), left_out=left_out,
+               std=dict(zip(names, map(float, jackknife_std(left_out[:, :width])))), left_out=left_out, kept=kept,
                bounds=bounds, degrees_of_freedom=len(index) - n, linearised_added=added)
 
 
@@ -256,7 +261,7 @@ def _rms(values):
     return max(float(np.sqrt(np.mean(np.square(values)))), 1e-300)
 
 
-def _jackknife_std(left_out):
+def jackknife_std(left_out):
     """Delete-one-block jackknife standard deviation of each column of the leave-one-out estimates."""
     deviation = left_out - left_out.mean(axis=0)
     return np.sqrt((FOLDS - 1) / FOLDS * np.sum(deviation ** 2, axis=0))

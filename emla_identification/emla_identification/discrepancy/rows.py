@@ -36,7 +36,7 @@ from emla_core.parameters import PARAMETER_NAMES
 from emla_identification.physical import MODEL_PARAMETERS, gains_jacobian, jacobian, piece_gains_jacobian
 from emla_identification.regressors import instruments, rows
 
-from .data import State, regression_rows
+from .data import PARTS, State, regression_rows
 
 FLUX_NODES = ((0.5 - 0.5 * 0.6 ** 0.5, 0.5, 0.5 + 0.5 * 0.6 ** 0.5), (5 / 18, 8 / 18, 5 / 18))   # Gauss-Legendre
 PIECES = 8   # parts of an electrical row's interval its terms are taken on, each at its middle (_electrical)
@@ -78,13 +78,37 @@ class Rows:
         q0 = self.q0 = np.array([model[name] for name in self.names], dtype=float)
         self.phi, self.y = rows(kind, data.signals, ts)
         self.coefficients, self.jacobian, gains = _linearised(kind, tuple(q0), ts)
-        self.prediction = self.phi @ self.coefficients
         self.index = regression_rows(data)
         self.voltage_gains, self.load_gains, self.voltage_slopes, self.load_slopes = gains
+        self.shaped = self._voltage_shape()
+        self.prediction = self.phi @ self.coefficients
+        if self.shaped is not None:
+            self.prediction = self.prediction + self.shaped @ self._shape_gains()[0]
 
     @functools.cached_property
     def nominal(self):
-        return self.phi @ self.jacobian
+        if self.shaped is None:
+            return self.phi @ self.jacobian
+        return self.phi @ self.jacobian + self.shaped @ self._shape_gains()[1]
+
+    def _voltage_shape(self):
+        """Each row's voltage less its interval mean over every part of the intervals the row spans (rows x
+        parts), where a re-alignment left the voltage not held over the interval (data.Data.voltage_parts): the
+        rows' columns take the mean, held, through the interval's gain; this through each part's gain
+        (_shape_gains) makes them exact. None when the voltage is held or the rows take none."""
+        parts = self.data.voltage_parts
+        if parts is None or self.kind == 'force':
+            return None
+        deviation = parts[:len(self.data)] - parts[:len(self.data)].mean(axis=1, keepdims=True)
+        k = self.index
+        if self.kind == 'electrical':   # the voltage over [t_k-1, t_k]
+            return deviation[k - 1]
+        return np.hstack((deviation[k - 1], deviation[k]))   # over [t_k-1, t_k] and [t_k, t_k+1]
+
+    def _shape_gains(self):
+        """(gain, its d/dq) of a voltage over each of the PARTS parts of the intervals the row spans, in time order."""
+        voltage, _, slopes, _ = self._pieces(PARTS)
+        return voltage.reshape(-1), slopes.reshape(-1, slopes.shape[-1])
 
     @property
     def target(self):
@@ -201,7 +225,8 @@ class Rows:
 
     def _step(self, rows, start):
         """The model's I_k from I_k-1 = `start` (and the rows' other regressors)."""
-        return start * self.coefficients[0] + self.phi[rows, 1:] @ self.coefficients[1:]
+        step = start * self.coefficients[0] + self.phi[rows, 1:] @ self.coefficients[1:]
+        return step if self.shaped is None else step + self.shaped[rows] @ self._shape_gains()[0]
 
     def _weights(self, name):
         """Each piece's weight of the gains `name` (voltage_gains, load_gains, or their d/dq: voltage_slopes,

@@ -58,8 +58,9 @@ from .adequacy import EQUATION, assess_adequacy
 from .candidates import library
 from .data import Data, regression_rows
 from .dependence import dependence, signals_of
-from .fit import FOLDS, Fit, design, fit, nominal_fit, physical, with_systematic
+from .fit import FOLDS, Fit, design, fit, greybox_start, nominal_fit, physical, with_systematic
 from .predict import MECHANICAL_TIME, predict
+from .profile import profiled
 from .residuals import binned, cross_correlation, whiteness
 from .rows import nominal_names
 from .start import rescue_starts
@@ -69,8 +70,9 @@ MIN_SCORE = 0.05
 MIN_T = 3.0
 MIN_SHARE = 0.7
 MOST = 0.5         # a significant candidate removing this share of the held-out one-step error is named
-REFINE_TOLERANCE = 1e-3   # of a continuous setting's logarithm: its relative precision after the grid
+REFINE_TOLERANCE = 1e-5   # of a continuous setting's logarithm: its relative precision after the grid
 MAX_EFFECTS = 4
+RIVAL = 2.0        # a significant candidate this many times better on some equation than the one named: rivals
 SMOOTHING = 1e-3   # s, of the residuals binned against the signals
 # The parameters whose terms an equation's residual is judged beside (the exact rows of both coil equations
 # depend on all of them, but the voltage's and current's own terms would take what an effect leaves correlated
@@ -149,6 +151,7 @@ class Stage:
     assessment: Assessment
     adequacy: dict          # equation -> adequacy.Adequacy of the model with the effect
     predictions: dict       # signal -> Prediction of the model with the effect
+    rivals: list = field(default_factory=list)   # significant Assessments the data do not tell from it (rivals)
 
 
 @dataclass
@@ -187,21 +190,36 @@ class Diagnosis:
         return 'explained' if all(a.adequate for a in self.final_adequacy.values()) else 'unexplained'
 
     @functools.cached_property
+    def profile(self):
+        """profile.profiled of the final model: its sigmas with every continuous setting profiled, or None."""
+        return profiled(self.final, self.data)
+
+    @functools.cached_property
     def final_std(self):
-        """(one-sigma of the final model's nominal parameters, of its added ones): jackknife and systematic, scaled
-        by the square root of the final model's low-band power ratio where it exceeds 1 (a Birge ratio: the
-        parameters take their information from the low band, and a model that leaves there more than the noise's
-        power, a form close but not exact, is that much less certain than its scatter over the blocks says)."""
-        nominal, added = with_systematic(self.final)
+        """(one-sigma of the final model's nominal parameters, of its added ones): jackknife (every continuous
+        setting profiled: profile.py) and systematic, scaled by the square root of the final model's low-band power
+        ratio where it exceeds 1 (a Birge ratio: the parameters take their information from the low band, and a
+        model that leaves there more than the noise's power, a form close but not exact, is that much less certain
+        than its scatter over the blocks says); and in quadrature the largest difference a rival of a named effect
+        (`rivals`) makes to each nominal parameter."""
+        profile = self.profile
+        nominal, added = with_systematic(self.final, *(profile[:2] if profile else ()))
         scale = np.sqrt(max([1.0] + [a.ratio for a in self.final_adequacy.values() if np.isfinite(a.ratio)]))
-        return {k: s * scale for k, s in nominal.items()}, added * scale
+        choice = {k: max([0.0] + [abs(r.fit.parameters[k] - stage.assessment.fit.parameters[k])
+                                  for stage in self.stages for r in stage.rivals]) for k in nominal}
+        return {k: float(np.hypot(s * scale, choice[k])) for k, s in nominal.items()}, added * scale
 
     def added_parameters(self) -> dict[str, tuple[float, float]]:
         """{name: (value, one-sigma)} of every named effect's parameters, from the final joint fit."""
         final, added_std = self.final, self.final_std[1]
+        settings = self.profile[2] if self.profile else {}
         out = {}
-        for candidate, part in final.added_slices():
-            out.update(candidate.reported(final.added[part], added_std[part], final.parameters))
+        for i, (candidate, part) in enumerate(final.added_slices()):
+            reported = candidate.reported(final.added[part], added_std[part], final.parameters)
+            if i in settings:   # a figure of the setting alone (a delay, a cutoff) takes its relative sigma
+                relative = settings[i] / getattr(candidate, candidate.scale)
+                reported = {k: (v, s if s else abs(v) * relative) for k, (v, s) in reported.items()}
+            out.update(reported)
         return out
 
     def disagreement(self, model: str = 'final') -> dict[str, dict]:
@@ -248,7 +266,10 @@ class Diagnosis:
             'reidentified_parameters': _rounded(final.parameters),
             'reidentified_parameters_std': _rounded(self.final_std[0]),
             'method': method(self.data),
-            'warnings': list(self.warnings),
+            'warnings': list(self.warnings) + [
+                f'the data do not tell {stage.assessment.name} from {r.name} (each predicts some equation at least '
+                f'{RIVAL:g} times better than the other): the re-identified parameters\' uncertainty includes the '
+                'difference between the two' for stage in self.stages for r in stage.rivals],
         }
 
 
@@ -319,7 +340,7 @@ def diagnose(data: Recording | Path | str | None = None, names: Sequence[str] | 
             if not best.named:
                 diagnosis.partial = best
                 break
-            diagnosis.stages.append(Stage(best, after, predict(best.fit)))
+            diagnosis.stages.append(Stage(best, after, predict(best.fit), rivals(best, left[1:])))
             current, adequacy = best.fit, after
             named = {stage.assessment.fit.candidates[-1].name for stage in diagnosis.stages}
             left = rank(current, [c for c in library(data, names) if c.name not in named])
@@ -359,6 +380,16 @@ def _nominal(data, recording, names):
                      ('; '.join(warnings) or f'{found}; does the recording excite the actuator?'))
 
 
+def rivals(best, others):
+    """The significant assessments among `others` that predict some equation's held-out blocks at least RIVAL
+    times better than `best` does, though `best` removes more in all: the data prefer neither form (a current
+    sensor half a sample late or behind a filter: one closes the electrical equation, the other the mechanical
+    one), and the nominal parameters' difference between the two is an uncertainty of the choice."""
+    own = best.fit.heldout.sum(axis=0)
+    return [a for a in others if a.significant and physical(a.fit.parameters)
+            and np.any(a.fit.heldout.sum(axis=0) * RIVAL < own)]
+
+
 def _physical_only(parameters):
     """The fit's physical parameters, without its sample period."""
     return {k: v for k, v in parameters.items() if k != 'sample_period'}
@@ -385,16 +416,26 @@ def rank(base, candidates):
 
 def assess(base, candidate):
     """The candidate at its best variant (held-out error of a one-pass fit; a continuous setting refined between
-    its grid's neighbours), refitted and judged."""
-    def heldout_error(variant):
-        trial = fit(variant.realigned(base.data), base.candidates + (variant,), base, relinearise=False)
-        error = trial.heldout.sum()
-        return error if np.isfinite(error) else np.inf
+    its grid's neighbours), refitted and judged.
+
+    A candidate that re-aligns the data (a sensor's delay) moves the optimum of every nominal parameter: the base
+    model, identified on the misaligned data, can be so far from it that one linearised step lands on an
+    impossible actuator (a 3-sample delay at 5 kHz: R half, L four times the truth). Its variants are then
+    searched again, and it is fitted, about the grey-box estimate of the data as its best variant re-aligns them
+    too; the fit that explains the held-out blocks better is kept."""
     variants = candidate.variants(base.data)
-    best = min(variants, key=heldout_error) if len(variants) > 1 else variants[0]
-    if best.scale is not None and len(variants) > 1:
-        best = _refined(best, variants, heldout_error, base.data)
-    result = fit(best.realigned(base.data), base.candidates + (best,), base)
+    best = _best_variant(base, variants, base.linearised_about)
+    results = [fit(best.realigned(base.data), base.candidates + (best,), base)]
+    start = _realigned_start(base.data, best)
+    if start is not None:
+        again = _best_variant(base, variants, start)
+        result = fit(again.realigned(base.data), base.candidates + (again,), base, about=start)
+        if again.scale is not None:   # the setting searched once more about the model fitted with it
+            again = _best_variant(base, variants, result.parameters, again)
+            result = fit(again.realigned(base.data), base.candidates + (again,), base, about=result.parameters)
+        results.append(result)
+    result = min(results, key=_heldout_total)
+    best = result.candidates[-1]
     heldout = np.nan_to_num(result.heldout, nan=np.inf)
     gain = base.heldout - heldout   # per block and equation; each equation's share removed, bounded:
     per_equation = [removed_share(b, a) for b, a in zip(base.heldout.sum(axis=0), heldout.sum(axis=0))]
@@ -411,15 +452,49 @@ def assess(base, candidate):
                       parameters, best.settings(), resolved, plausible)
 
 
+def _best_variant(base, variants, about, near=None):
+    """The variant whose one-pass fit, linearised about `about` ({name: value}), predicts the held-out blocks best
+    (a continuous setting refined between its grid's neighbours); only refined from `near` where given."""
+    def heldout_error(variant):
+        return _heldout_total(fit(variant.realigned(base.data), base.candidates + (variant,), base,
+                                  relinearise=False, about=about))
+    best = near or (min(variants, key=heldout_error) if len(variants) > 1 else variants[0])
+    if best.scale is not None and len(variants) > 1:
+        best = _refined(best, variants, heldout_error, base.data)
+    return best
+
+
+def _heldout_total(result):
+    """A Fit's held-out residual sum of squares; infinite for an impossible actuator or a failed fit."""
+    error = result.heldout.sum()
+    return float(error) if np.isfinite(error) and physical(result.parameters) else np.inf
+
+
+def _realigned_start(data, variant):
+    """The grey-box estimate of `data` as `variant` re-aligns them, or None (no re-alignment, or no physical
+    estimate)."""
+    moved = variant.realigned(data)
+    if moved is data:
+        return None
+    try:
+        start = greybox_start(moved)
+    except InputError:
+        return None
+    start = {name: float(start[name]) for name in nominal_names(data)}
+    return start if physical(start) else None
+
+
 def _refined(best, variants, error, data):
     """`best` with its continuous setting (Candidate.scale) at the held-out error's minimum between the grid
     points either side of it (bounded Brent search in the logarithm, to REFINE_TOLERANCE), if lower there."""
     grid = sorted(v for v in {getattr(v, best.scale) for v in variants} if 0.0 < v < np.inf)
     value = getattr(best, best.scale)
-    if value not in grid or len(grid) < 2:
+    if not 0.0 < value < np.inf:
         return best
-    j = grid.index(value)
-    low, high = grid[max(j - 1, 0)], grid[min(j + 1, len(grid) - 1)]
+    low = max([g for g in grid if g < value], default=value)
+    high = min([g for g in grid if g > value], default=value)
+    if low == high:
+        return best
     search = minimize_scalar(lambda z: error(best.at(data, np.exp(z))), bounds=(np.log(low), np.log(high)),
                              method='bounded', options={'xatol': REFINE_TOLERANCE})
     refined = best.at(data, float(np.exp(search.x)))
