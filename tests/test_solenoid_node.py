@@ -5,6 +5,7 @@ ResistanceTracker's on the same samples. With `position_observer` and only the v
 publishes the armature's position (emla_identification.solenoid_observer's causal filter) frame by frame: the
 library's on the same samples; within 4 % of the stroke of the bag's measured position (3.3 % measured: the causal
 filter has no smoother to correct a flight from the rest at its end; offline, smoothed, 2.2-3.4 %)."""
+import dataclasses
 import json
 import subprocess
 
@@ -14,7 +15,8 @@ import yaml
 from ros_isolation import VENV_BIN, processes
 
 from emla_core.bag import read_bag
-from emla_core.model_file import read
+from emla_core.model_file import Model, read, write
+from emla_core.physics.solenoid import SolenoidParameters
 from emla_identification.solenoid_observer import PositionObserver, observer_model
 from emla_identification.solenoid_online import ResistanceTracker
 
@@ -84,9 +86,25 @@ def test_the_identifier_node_estimates_a_solenoids_position_from_its_coil(tmp_pa
     assert np.sqrt(np.mean((offline - recording.signals['position']) ** 2)) < 0.04 * stroke
 
 
-def test_a_solenoid_identifier_without_its_model_file_is_one_line(tmp_path, ros_env):
+@pytest.fixture
+def solenoid_model(tmp_path):
+    """A solenoid's model file of the default parameters (as `emla identify --actuator solenoid` writes one)."""
+    path = tmp_path / 'valve.yaml'
+    values = dataclasses.asdict(SolenoidParameters())
+    write(Model(2e-4, {k: (float(v), 0.0) for k, v in values.items()}, actuator='solenoid'), path)
+    assert read(path).solenoid() == SolenoidParameters()
+    return path
+
+
+@pytest.mark.parametrize('parameters, named', [
+    ({'actuator': 'solenoid'}, 'model_file'),
+    ({'position_observer': True}, 'position_observer is for actuator solenoid'),
+    ({'actuator': 'solenoid', 'model_file': 'MODEL', 'position_observer': True}, 'needs current_noise')])
+def test_a_solenoid_identifier_set_up_wrong_is_one_line(tmp_path, ros_env, solenoid_model, parameters, named):
     params = tmp_path / 'identifier.yaml'
-    params.write_text(yaml.safe_dump({'/emla/identifier': {'ros__parameters': {'actuator': 'solenoid'}}}))
+    parameters = {k: str(solenoid_model) if v == 'MODEL' else v for k, v in parameters.items()}
+    params.write_text(yaml.safe_dump({'/emla/identifier': {'ros__parameters': parameters}}))
     out = subprocess.run([EMLA, 'run', 'identifier', '--params-file', str(params)], capture_output=True, text=True,
                          timeout=60, env=ros_env)
-    assert out.returncode != 0 and 'model_file' in out.stderr and 'Traceback' not in out.stderr
+    assert out.returncode != 0 and named in out.stderr and 'Traceback' not in out.stderr
+    assert len(out.stderr.strip().splitlines()) == 1, out.stderr
