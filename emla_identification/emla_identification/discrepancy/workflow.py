@@ -70,7 +70,8 @@ MIN_SCORE = 0.05
 MIN_T = 3.0
 MIN_SHARE = 0.7
 MOST = 0.5         # a significant candidate removing this share of the held-out one-step error is named
-REFINE_TOLERANCE = 1e-5   # of a continuous setting's logarithm: its relative precision after the grid
+REFINE_TOLERANCE = 1e-3   # of a continuous setting's logarithm: its relative precision after the grid
+POLISH = 0.005     # relative step either side of a refined setting, for its parabola (_polished)
 MAX_EFFECTS = 4
 RIVAL = 2.0        # a significant candidate this many times better on some equation than the one named: rivals
 SMOOTHING = 1e-3   # s, of the residuals binned against the signals
@@ -416,26 +417,27 @@ def rank(base, candidates):
 
 def assess(base, candidate):
     """The candidate at its best variant (held-out error of a one-pass fit; a continuous setting refined between
-    its grid's neighbours), refitted and judged.
+    its grid's neighbours, then polished about the model fitted with it), refitted and judged.
 
     A candidate that re-aligns the data (a sensor's delay) moves the optimum of every nominal parameter: the base
     model, identified on the misaligned data, can be so far from it that one linearised step lands on an
-    impossible actuator (a 3-sample delay at 5 kHz: R half, L four times the truth). Its variants are then
-    searched again, and it is fitted, about the grey-box estimate of the data as its best variant re-aligns them
-    too; the fit that explains the held-out blocks better is kept."""
+    impossible actuator (a 3-sample delay at 5 kHz: R half, L four times the truth). Where the fit is impossible
+    or removes most (MOST) of the held-out error, its variants are searched again, and it is fitted, about the
+    grey-box estimate of the data as its best variant re-aligns them; the fit that predicts the held-out blocks
+    better is kept."""
     variants = candidate.variants(base.data)
     best = _best_variant(base, variants, base.linearised_about)
-    results = [fit(best.realigned(base.data), base.candidates + (best,), base)]
-    start = _realigned_start(base.data, best)
-    if start is not None:
-        again = _best_variant(base, variants, start)
-        result = fit(again.realigned(base.data), base.candidates + (again,), base, about=start)
-        if again.scale is not None:   # the setting searched once more about the model fitted with it
-            again = _best_variant(base, variants, result.parameters, again)
-            result = fit(again.realigned(base.data), base.candidates + (again,), base, about=result.parameters)
-        results.append(result)
-    result = min(results, key=_heldout_total)
-    best = result.candidates[-1]
+    result = fit(best.realigned(base.data), base.candidates + (best,), base)
+    moved = best.realigned(base.data) is not base.data
+    if moved and (not physical(result.parameters) or _heldout_total(result) <= (1.0 - MOST) * base.heldout.sum()):
+        start = _realigned_start(base.data, best)
+        if start is not None:
+            again = _best_variant(base, variants, start)
+            result = min((result, fit(again.realigned(base.data), base.candidates + (again,), base, about=start)),
+                         key=_heldout_total)
+    best = _polished(base, result.candidates[-1], variants, result.parameters)
+    if best is not result.candidates[-1]:
+        result = fit(best.realigned(base.data), base.candidates + (best,), base, about=result.parameters)
     heldout = np.nan_to_num(result.heldout, nan=np.inf)
     gain = base.heldout - heldout   # per block and equation; each equation's share removed, bounded:
     per_equation = [removed_share(b, a) for b, a in zip(base.heldout.sum(axis=0), heldout.sum(axis=0))]
@@ -452,16 +454,50 @@ def assess(base, candidate):
                       parameters, best.settings(), resolved, plausible)
 
 
-def _best_variant(base, variants, about, near=None):
+def _best_variant(base, variants, about):
     """The variant whose one-pass fit, linearised about `about` ({name: value}), predicts the held-out blocks best
-    (a continuous setting refined between its grid's neighbours); only refined from `near` where given."""
+    (a continuous setting refined between its grid's neighbours)."""
     def heldout_error(variant):
         return _heldout_total(fit(variant.realigned(base.data), base.candidates + (variant,), base,
                                   relinearise=False, about=about))
-    best = near or (min(variants, key=heldout_error) if len(variants) > 1 else variants[0])
+    best = min(variants, key=heldout_error) if len(variants) > 1 else variants[0]
     if best.scale is not None and len(variants) > 1:
         best = _refined(best, variants, heldout_error, base.data)
     return best
+
+
+def _polished(base, variant, variants, about):
+    """`variant` with its continuous setting s at the lowest residual sum of squares (one-pass fits about `about`) of:
+    s, the vertex of the parabola through s and s (1 +- POLISH) (at most POLISH s away), and the grid points of
+    `variants` within POLISH s (a whole-sample delay, where the sum's curvature differs either side). The held-out
+    search stops at REFINE_TOLERANCE of s, and a delay 0.003 samples off moves an inductance by many sigmas."""
+    if variant.scale is None:
+        return variant
+    value = getattr(variant, variant.scale)
+    grid = [getattr(v, variant.scale) for v in variants]
+    if not min(grid) <= value * (1.0 - POLISH) < value * (1.0 + POLISH) <= max(grid) < np.inf:
+        return variant
+
+    def chi_square(setting):
+        trial = variant.at(base.data, setting)
+        return _chi_square(fit(trial.realigned(base.data), base.candidates + (trial,), base, relinearise=False,
+                               about=about))
+    low, middle, high = (chi_square(value * (1.0 + POLISH * u)) for u in (-1.0, 0.0, 1.0))
+    tried = {value: middle}
+    curvature = low + high - 2.0 * middle
+    if np.isfinite(curvature) and curvature > 0:
+        vertex = value * (1.0 + POLISH * float(np.clip((low - high) / (2.0 * curvature), -1.0, 1.0)))
+        tried[vertex] = chi_square(vertex)
+    for point in grid:
+        if point not in tried and abs(point - value) <= POLISH * value:
+            tried[point] = chi_square(point)
+    return variant.at(base.data, min(tried, key=tried.get))
+
+
+def _chi_square(result):
+    """A Fit's weighted residual sum of squares on all its rows; infinite for an impossible actuator."""
+    total = sum((result.rms[k] / result.sigma[k]) ** 2 for k in result.rms) * result.degrees_of_freedom
+    return float(total) if np.isfinite(total) and physical(result.parameters) else np.inf
 
 
 def _heldout_total(result):
