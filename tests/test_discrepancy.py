@@ -24,7 +24,6 @@ from emla_identification.discrepancy.residuals import binned, cross_correlation,
 from emla_sim.datasets import closed_loop, random_parameters
 
 DURATION = 3.0
-EXACT = 'since the discrepancy fit moved to the exact rows (issue 22, open)'
 
 
 def hidden(effect, rng):
@@ -69,11 +68,7 @@ EFFECTS = ['coulomb_friction', 'return_spring', 'resistance_drift', 'inductance_
 
 @pytest.mark.parametrize('seed', [0, 1, 2])
 @pytest.mark.parametrize('effect', EFFECTS)
-def test_names_the_hidden_effect_and_halves_the_gap(effect, seed, request):
-    if (effect, seed) == ('sensor_delay', 1):
-        request.applymarker(pytest.mark.xfail(strict=True, reason=(
-            'a known regression %s: after the 2-sample delay is named, the position gap is 10.5 %% above '
-            'the nominal\'s (the test allows 10 %%), the current gap 4.5 times smaller' % EXACT)))
+def test_names_the_hidden_effect_and_halves_the_gap(effect, seed):
     recording, _ = recording_with(effect, seed)
     result = diagnose(recording).to_dict()
     assert result['missing_effect'] == effect, result['candidates']
