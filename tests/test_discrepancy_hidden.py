@@ -56,11 +56,6 @@ def test_a_library_effect_is_named(effect, named, check):
     assert check(result['added_parameters'], truth), result['added_parameters']
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    'a known regression since the discrepancy fit moved to the exact rows (issue 22, open): both effects are named '
-    'and the joint model is explained (power ratios 1.03-1.16, so the Birge scaling of the sigmas hardly moves '
-    'them), but L misses 3 sigma (seed 0: 4.25, seed 1: 3.0): a bias the drift\'s first-order heating shape '
-    'leaves, which no sigma of the fit carries'))
 @pytest.mark.parametrize('seed', [0, 1])
 def test_two_effects_are_both_named_and_the_joint_model_is_right(seed):
     result, truth = diagnosed(('return_spring', 'resistance_drift'), seed)

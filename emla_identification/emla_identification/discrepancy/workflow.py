@@ -336,6 +336,7 @@ def diagnose(data: Recording | Path | str | None = None, names: Sequence[str] | 
             # error is (a current sensor's 50 mA offset: 2.5 times the floor, 78 % of the error, 10 of 10 blocks)
             if best is None or (all(a.adequate for a in adequacy.values()) and best.score < MOST):
                 break
+            best = polished(current, best)
             after = assess_adequacy(best.fit)
             best.share = removed_share(_disagreement(adequacy), _disagreement(after))
             if not best.named:
@@ -417,7 +418,7 @@ def rank(base, candidates):
 
 def assess(base, candidate):
     """The candidate at its best variant (held-out error of a one-pass fit; a continuous setting refined between
-    its grid's neighbours, then polished about the model fitted with it), refitted and judged.
+    its grid's neighbours), refitted and judged.
 
     A candidate that re-aligns the data (a sensor's delay) moves the optimum of every nominal parameter: the base
     model, identified on the misaligned data, can be so far from it that one linearised step lands on an
@@ -435,9 +436,24 @@ def assess(base, candidate):
             again = _best_variant(base, variants, start)
             result = min((result, fit(again.realigned(base.data), base.candidates + (again,), base, about=start)),
                          key=_heldout_total)
-    best = _polished(base, result.candidates[-1], variants, result.parameters)
-    if best is not result.candidates[-1]:
-        result = fit(best.realigned(base.data), base.candidates + (best,), base, about=result.parameters)
+    return _judged(base, result)
+
+
+def polished(base, assessment):
+    """The assessment (of a candidate added to `base`) with its continuous setting polished about the model fitted
+    with it (_polished) and refitted; itself when the setting stays. The workflow polishes the effects it names:
+    the held-out search that ranks them stops at REFINE_TOLERANCE of the setting."""
+    result = assessment.fit
+    variant = result.candidates[-1]
+    best = _polished(base, variant, variant.variants(base.data), result.parameters)
+    if best is variant:
+        return assessment
+    return _judged(base, fit(best.realigned(base.data), base.candidates + (best,), base, about=result.parameters))
+
+
+def _judged(base, result):
+    """The Assessment of `result`, the fit of `base` with one more candidate (its last)."""
+    best = result.candidates[-1]
     heldout = np.nan_to_num(result.heldout, nan=np.inf)
     gain = base.heldout - heldout   # per block and equation; each equation's share removed, bounded:
     per_equation = [removed_share(b, a) for b, a in zip(base.heldout.sum(axis=0), heldout.sum(axis=0))]
@@ -448,7 +464,7 @@ def assess(base, candidate):
     resolved = not len(values) or bool(np.any(np.abs(values) >= MIN_T * stds))
     # a sign physics forbids, on a parameter the data resolve (an unresolved one's sign is the noise's)
     plausible = all(sign * value >= 0 or abs(value) < MIN_T * std for sign, value, std in
-                    zip(candidate.signs, values, stds))
+                    zip(best.signs, values, stds))
     return Assessment(best.effect_name(values), result, float(sum(per_equation)),
                       dict(zip(kinds, map(float, per_equation))), int(np.sum(gain.sum(axis=1) > 0)),
                       parameters, best.settings(), resolved, plausible)
