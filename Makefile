@@ -2,15 +2,16 @@
 VENV := .venv
 EMLA := $(VENV)/bin/emla
 
-.PHONY: help setup test lint demo bench sweep discrepancy-sweep clean
+.PHONY: help setup test test-all lint demo bench sweep discrepancy-sweep clean
 
 help:
 	@echo "make setup  - create .venv/ with ROS 2 Jazzy wheels, emla_msgs and the emla packages (idempotent)"
-	@echo "make test   - the lint gate, then the test suite (sets up first)"
+	@echo "make test   - the lint gate, then the test suite without its slow discrepancy cases (sets up first)"
+	@echo "make test-all - the lint gate, then every test, the slow discrepancy cases too (about 35 min on 2 cores)"
 	@echo "make lint   - the lint gate alone: ruff check (ruff.toml)"
 	@echo "make demo   - run the default scenario end to end (sets up first)"
 	@echo "make bench  - measure the hot paths; writes bench-results.json (sets up first)"
-	@echo "make sweep  - fuzz the commands with 20000 mutated inputs (tests/test_fuzz.py; FUZZ_SEED=N for another seed), then make discrepancy-sweep"
+	@echo "make sweep  - the slow discrepancy tests, the commands fuzzed with 20000 mutated inputs (tests/test_fuzz.py; FUZZ_SEED=N for another seed), then make discrepancy-sweep"
 	@echo "make discrepancy-sweep - the discrepancy workflow on 400 independent records (SWEEP_CASES, SWEEP_WORKERS); writes docs/discrepancy-sweep.md"
 	@echo "make clean  - remove .venv/ and build outputs"
 
@@ -18,6 +19,9 @@ setup:
 	@bash scripts/setup.sh
 
 test: setup lint
+	$(VENV)/bin/python -m pytest -m "not slow" tests
+
+test-all: setup lint
 	$(VENV)/bin/python -m pytest tests
 
 lint: setup
@@ -32,6 +36,7 @@ bench: setup
 FUZZ_CASES ?= 20000
 FUZZ_SEED ?= 1
 sweep: setup
+	$(VENV)/bin/python -m pytest -m slow tests
 	EMLA_FUZZ_CASES=$(FUZZ_CASES) EMLA_FUZZ_SEED=$(FUZZ_SEED) $(VENV)/bin/python -m pytest tests/test_fuzz.py -q -s
 	$(MAKE) discrepancy-sweep
 

@@ -1,8 +1,40 @@
-"""Fixtures shared by the test modules."""
+"""Fixtures shared by the test modules, and the `slow` mark of the discrepancy workflow's long cases."""
 import pytest
 from ros_isolation import isolated_env
 
 from emla_cli.launcher import reserved_domain
+
+# Tests that run the discrepancy workflow on generated records, 10-70 s each (about 25 minutes in all on 2 cores):
+# `make test` leaves them to `make test-all` and `make sweep` and keeps the fixed subset KEPT (a clean record, a
+# hidden effect named, a delay re-aligned, the sweep's own cases, the README's walkthrough, the model file).
+SLOW = {
+    'test_discrepancy.py': ('test_names_the_hidden_effect_and_halves_the_gap',
+                            'test_no_missing_effect_is_no_false_alarm', 'test_two_effects_are_named_in_turn',
+                            'test_coulomb_friction_from_force_and_position_only'),
+    'test_discrepancy_hidden.py': ('test_a_clean_record_is_adequate', 'test_a_library_effect_is_named',
+                                   'test_a_registered_candidate_explains_what_was_unexplained',
+                                   'test_an_effect_the_library_lacks_is_unexplained_and_located',
+                                   'test_two_effects_are_both_named_and_the_joint_model_is_right'),
+    'test_discrepancy_acceptance.py': ('test_pairs_of_effects_are_both_named',
+                                       'test_a_continuous_setting_is_refined_between_its_grid_points'),
+    'test_bench_effects.py': ('test_a_current_late_by_half_a_sample_is_named',
+                              'test_a_current_sensors_filter_is_named_at_the_sensor_and_closed',
+                              'test_a_late_current_the_data_cannot_place_is_a_rival_and_the_model_within_its_sigma',
+                              'test_stribeck_friction_is_named_after_the_coulomb_level',
+                              'test_smooth_friction_is_named_closed_and_its_speed_estimated',
+                              'test_a_sharper_smooth_friction_is_named_with_its_level',
+                              'test_a_coulomb_friction_is_not_called_stribeck_or_smooth'),
+    'test_position_inductance.py': ('test_the_discrepancy_workflow_names_it_on_independent_data',),
+    'test_discrepancy_rescue.py': ('test_a_record_the_nominal_model_alone_cannot_fit_is_diagnosed',
+                                   'test_a_dry_friction_with_a_damped_stuck_contact_closes'),
+}
+KEPT = {'test_names_the_hidden_effect_and_halves_the_gap[return_spring-0]', 'test_a_clean_record_is_adequate[0]'}
+
+
+def pytest_collection_modifyitems(items):
+    for item in items:
+        if item.originalname in SLOW.get(item.path.name, ()) and item.name not in KEPT:
+            item.add_marker(pytest.mark.slow)
 
 
 @pytest.fixture
