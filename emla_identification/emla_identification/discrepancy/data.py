@@ -206,6 +206,16 @@ class Data:
         """The measured State at every sample."""
         return State(self, np.arange(len(self)), velocity=self.velocity(), **self.signals)
 
+    def voltage_deviation(self):
+        """The voltage's mean over each of PARTS parts of every interval of the window less the interval's mean
+        (samples x PARTS; kept: every Rows of a re-aligned record asks), or None where the voltage is held."""
+        if self.voltage_parts is None:
+            return None
+        if '_voltage_deviation' not in self.__dict__:
+            parts = self.voltage_parts[:len(self)]
+            self.__dict__['_voltage_deviation'] = parts - parts.mean(axis=1, keepdims=True)
+        return self.__dict__['_voltage_deviation']
+
     def between(self, pieces):
         """{'position', 'velocity'}: (intervals, pieces) at the middle of each of `pieces` equal parts of every
         interval, along the cubic spline through the measured positions (kept: a diagnosis asks often)."""

@@ -171,13 +171,13 @@ def _refined(data, candidates, result):
         refit = solve(data, candidates, result.parameters, result.sigma, added=result.added)
         if not physical(refit.parameters):
             break
-        gain, result = _chi_square(result, refit.rms) - _chi_square(refit, refit.rms), refit
+        gain, result = chi_square(result, refit.rms) - chi_square(refit, refit.rms), refit
         if gain < ENOUGH:
             break
     return result
 
 
-def _chi_square(fit, scale):
+def chi_square(fit, scale):
     """The residual sum of squares of a Fit, each equation's rows over `scale` (a residual std of each)."""
     return sum((fit.rms[kind] / scale[kind]) ** 2 for kind in fit.rms) * fit.degrees_of_freedom
 

@@ -96,10 +96,9 @@ class Rows:
         parts), where a re-alignment left the voltage not held over the interval (data.Data.voltage_parts): the
         rows' columns take the mean, held, through the interval's gain; this through each part's gain
         (_shape_gains) makes them exact. None when the voltage is held or the rows take none."""
-        parts = self.data.voltage_parts
-        if parts is None or self.kind == 'force':
+        deviation = self.data.voltage_deviation()
+        if deviation is None or self.kind == 'force':
             return None
-        deviation = parts[:len(self.data)] - parts[:len(self.data)].mean(axis=1, keepdims=True)
         k = self.index
         if self.kind == 'electrical':   # the voltage over [t_k-1, t_k]
             return deviation[k - 1]

@@ -58,7 +58,7 @@ from .adequacy import EQUATION, assess_adequacy
 from .candidates import library
 from .data import Data, regression_rows
 from .dependence import dependence, signals_of
-from .fit import FOLDS, Fit, design, fit, greybox_start, nominal_fit, physical, with_systematic
+from .fit import FOLDS, Fit, chi_square, design, fit, greybox_start, nominal_fit, physical, with_systematic
 from .predict import MECHANICAL_TIME, predict
 from .profile import profiled
 from .residuals import binned, cross_correlation, whiteness
@@ -428,10 +428,11 @@ def assess(base, candidate):
     better is kept."""
     variants = candidate.variants(base.data)
     best = _best_variant(base, variants, base.linearised_about)
-    result = fit(best.realigned(base.data), base.candidates + (best,), base)
-    moved = best.realigned(base.data) is not base.data
-    if moved and (not physical(result.parameters) or _heldout_total(result) <= (1.0 - MOST) * base.heldout.sum()):
-        start = _realigned_start(base.data, best)
+    moved = best.realigned(base.data)
+    result = fit(moved, base.candidates + (best,), base)
+    if moved is not base.data and (not physical(result.parameters) or
+                                   _heldout_total(result) <= (1.0 - MOST) * base.heldout.sum()):
+        start = _realigned_start(moved)
         if start is not None:
             again = _best_variant(base, variants, start)
             result = min((result, fit(again.realigned(base.data), base.candidates + (again,), base, about=start)),
@@ -511,8 +512,9 @@ def _polished(base, variant, variants, about):
 
 
 def _chi_square(result):
-    """A Fit's weighted residual sum of squares on all its rows; infinite for an impossible actuator."""
-    total = sum((result.rms[k] / result.sigma[k]) ** 2 for k in result.rms) * result.degrees_of_freedom
+    """A Fit's weighted residual sum of squares on all its rows (fit.chi_square in its own weights); infinite for
+    an impossible actuator."""
+    total = chi_square(result, result.sigma)
     return float(total) if np.isfinite(total) and physical(result.parameters) else np.inf
 
 
@@ -522,17 +524,13 @@ def _heldout_total(result):
     return float(error) if np.isfinite(error) and physical(result.parameters) else np.inf
 
 
-def _realigned_start(data, variant):
-    """The grey-box estimate of `data` as `variant` re-aligns them, or None (no re-alignment, or no physical
-    estimate)."""
-    moved = variant.realigned(data)
-    if moved is data:
-        return None
+def _realigned_start(moved):
+    """The grey-box estimate of re-aligned data `moved`, or None (no physical estimate)."""
     try:
         start = greybox_start(moved)
     except InputError:
         return None
-    start = {name: float(start[name]) for name in nominal_names(data)}
+    start = {name: float(start[name]) for name in nominal_names(moved)}
     return start if physical(start) else None
 
 
