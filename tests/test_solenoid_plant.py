@@ -18,6 +18,19 @@ def test_the_plant_follows_the_independent_solution_through_the_stops(rate):
     assert np.max(np.abs(out['position'] - x)) < 5e-8                              # m (of a 1.2 mm stroke)
 
 
+def test_a_smooth_friction_of_the_armature_follows_the_independent_solution():
+    """Fc tanh(v / v_s) (friction_speed > 0): a load like the spring's, nothing sticks; the generator's own form."""
+    friction = {'friction_force': 0.3, 'friction_speed': 5e-3}
+    rec, truth = independent_record(duration=0.5, rate=5000.0, params=friction, current_noise=0.0, current_step=0.0,
+                                    resolution=0.0)
+    out = SolenoidPlant(SolenoidParameters(**truth)).run(rec.signals['voltage'], 2e-4, sampling='start')
+    dry = SolenoidPlant(SolenoidParameters(**dict(truth, friction_speed=0.0))).run(rec.signals['voltage'], 2e-4,
+                                                                                    sampling='start')
+    x = rec.signals['position']
+    assert np.max(np.abs(out['position'] - x)) < 5e-8
+    assert np.max(np.abs(dry['position'] - x)) > 1e-6   # the dry, sticking form is another plant
+
+
 def test_the_magnetic_circuit_and_its_force():
     p = SolenoidParameters()
     x, i = 0.6e-3, 2.0
@@ -31,7 +44,7 @@ def test_the_magnetic_circuit_and_its_force():
 
 
 @pytest.mark.parametrize('bad', [dict(resistance=0.0), dict(stroke_max=2e-3), dict(mass=float('nan')),
-                                 dict(stroke_min=1.3e-3), dict(damping=-1.0)])
+                                 dict(stroke_min=1.3e-3), dict(damping=-1.0), dict(friction_speed=-1e-3)])
 def test_impossible_parameters_are_refused(bad):
     with pytest.raises(ValueError, match='SolenoidParameters'):
         SolenoidParameters(**bad)

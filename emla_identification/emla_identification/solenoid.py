@@ -114,7 +114,8 @@ class SolenoidResult:
         """The identified solenoid as SolenoidParameters, its end stops the record's (`stroke`)."""
         return SolenoidParameters(**{name: self.parameters[name] for name in SOLENOID_PARAMETER_NAMES},
                                   stroke_min=self.stroke[0], stroke_max=self.stroke[1],
-                                  friction_force=max(self.parameters.get('coulomb_force', 0.0), 0.0))
+                                  friction_force=max(self.parameters.get('coulomb_force', 0.0), 0.0),
+                                  friction_speed=self.settings.get('friction_speed', 0.0))
 
     def model_file(self, data: str, command: str):
         """The identified solenoid as a model file's Model (emla_core.model_file; `actuator: solenoid`): the
@@ -204,9 +205,9 @@ def _identify(u, i, x, ts, source, friction=False):
     substeps = 2 * max(1, math.ceil(ts / SUBSTEP / 2))
     stopped = on_stop(x)
     electrical = _start(u, i, x, ts)
-    mechanical = None   # the first pass: the armature's path a spline through the samples
+    mechanical, speed = None, None   # the first pass: the armature's path a spline through the samples
     for _ in range(PASSES):
-        nodes, error = _nodes(u, i, x, stopped, electrical, mechanical, ts, substeps)
+        nodes, error = _nodes(u, i, x, stopped, electrical, mechanical, speed, ts, substeps)
         keep = np.ones(len(u), bool)
         keep[:_settling(electrical, x, ts, len(u))] = False
         if mechanical is None:
@@ -408,14 +409,14 @@ def _paths(u, i0, x, stopped, p, ts, substeps):
     return current, position, error
 
 
-def _nodes(u, i, x, stopped, electrical, mechanical, ts, substeps):
+def _nodes(u, i, x, stopped, electrical, mechanical, speed, ts, substeps):
     """(The armature's positions at the half sub-steps of each interval, (n - 1, 2 substeps + 1), their possible
     error per interval in m): along the spline (mechanical None, the first pass), else along the paths the
-    parameters give (`_paths`)."""
+    parameters (and a friction's v_s `speed`) give (`_paths`)."""
     if mechanical is None:
         return _spline_nodes(x, stopped, substeps), _spline_error(x, stopped)
-    # (KERNEL_SLOTS; a friction as the plant's dry one, its v_s left out)
-    kernel = np.concatenate((electrical, mechanical[:4], (x.min(), x.max(), max(mechanical[4:5].sum(), 0.0))))
+    friction = max(mechanical[4:5].sum(), 0.0)
+    kernel = np.concatenate((electrical, mechanical[:4], (x.min(), x.max(), friction, speed or 0.0)))   # KERNEL_SLOTS
     _, nodes, error = _paths(u, float(i[0]), x, stopped, kernel, ts, 2 * substeps)
     return nodes, error
 
@@ -512,18 +513,23 @@ def _mechanics(u, i, x, nodes, electrical, ts, substeps, rows, speeds=()):
     phi = with_friction(speed) if speed is not None else np.column_stack(columns)
     theta, *_ = np.linalg.lstsq(phi, acceleration, rcond=None)
     residual = acceleration - phi @ theta
+    jacobian = phi
+    if speed:   # v_s searched, not known: its column (d model / d ln v_s) joins the covariance's Jacobian
+        ratio = path_velocity / speed
+        slope = _triangle_means(-ratio / np.cosh(np.clip(ratio, -300.0, 300.0)) ** 2, rows)[0]
+        jacobian = np.column_stack((phi, theta[-1] * slope))
     mass = 1.0 / theta[0]
     values = np.concatenate(([mass], -theta[1:] * mass))
     # how position noise q_k-2..q_k+2 enters a row's residual: the second difference less the fitted velocity's
     # and mean position's shares (those of the five-point formulas for the path's means, which pass the samples)
     stencil = (np.array([0.0, 1.0, -2.0, 1.0, 0.0]) / ts ** 2 - theta[1] * np.array([1, -14, 0, 14, -1]) / (24 * ts)
                - theta[2] * np.array([0.0, 1.0, 10.0, 1.0, 0.0]) / 12.0)
-    spread = np.zeros((len(x), phi.shape[1]))   # W: the rows' regressors carried to the samples whose noise they meet
+    spread = np.zeros((len(x), jacobian.shape[1]))   # W: the rows' Jacobian carried to the samples whose noise it meets
     for offset, weight in zip(range(-2, 3), stencil):
-        spread[rows + offset] += weight * phi
-    bread = np.linalg.inv(phi.T @ phi)
+        spread[rows + offset] += weight * jacobian
+    bread = np.linalg.inv(jacobian.T @ jacobian)
     noise = np.mean(residual ** 2) / np.sum(stencil ** 2)   # the position noise's variance (m^2)
-    theta_cov = noise * bread @ (spread.T @ spread) @ bread
+    theta_cov = (noise * bread @ (spread.T @ spread) @ bread)[:len(theta), :len(theta)]
     transform = -mass * np.eye(len(theta))   # d(values)/d(theta): m = 1/theta_0, the others -theta_j m
     transform[:, 0] = theta * mass ** 2
     transform[0, 0] = -mass ** 2

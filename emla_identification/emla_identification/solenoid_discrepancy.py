@@ -130,7 +130,6 @@ def diagnose_solenoid(data) -> SolenoidDiagnosis:
 
 
 def _gaps(result, recording):
-    """{signal: NRMSE} of the result's free run under the record's voltage (a friction as the plant's dry one,
-    Fc with sticking: its v_s left out)."""
+    """{signal: NRMSE} of the result's free run under the record's voltage (a friction with its v_s)."""
     return {name: round(p.nrmse, 6) if np.isfinite(p.nrmse) else None
             for name, p in predict_solenoid(result.solenoid(), recording).items()}

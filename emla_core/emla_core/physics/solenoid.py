@@ -61,7 +61,10 @@ class SolenoidParameters:
     supply_voltage : float
         The driver's limit U (V), > 0: the voltage is clipped to +-U.
     friction_force : float
-        A dry friction Fc (N, >= 0) of the armature, sticking below breakaway (equations.friction_force); 0: none.
+        A friction Fc (N, >= 0) of the armature; 0: none.
+    friction_speed : float
+        v_s (m/s, >= 0) of that friction: Fc tanh(v / v_s), smooth through v = 0; 0: the dry Fc sign(v), sticking
+        below breakaway (equations.friction_force).
 
     Examples
     --------
@@ -82,6 +85,7 @@ class SolenoidParameters:
     stroke_max: float = 1.2e-3
     supply_voltage: float = 24.0
     friction_force: float = 0.0
+    friction_speed: float = 0.0
 
     def __post_init__(self):
         for field in dataclasses.fields(self):
@@ -92,7 +96,7 @@ class SolenoidParameters:
         for name in ('resistance', 'gap_coefficient', 'gap', 'mass', 'supply_voltage'):
             if getattr(self, name) <= 0.0:
                 raise ValueError(f'SolenoidParameters.{name} must be positive, got {getattr(self, name)!r}')
-        for name in ('leakage_inductance', 'damping', 'spring_stiffness', 'friction_force'):
+        for name in ('leakage_inductance', 'damping', 'spring_stiffness', 'friction_force', 'friction_speed'):
             if getattr(self, name) < 0.0:
                 raise ValueError(f'SolenoidParameters.{name} must be >= 0, got {getattr(self, name)!r}')
         if not self.stroke_min < self.stroke_max < self.gap:
@@ -137,8 +141,8 @@ class SolenoidParameters:
 
 
 KERNEL_SLOTS = ('resistance', 'leakage_inductance', 'gap_coefficient', 'gap', 'mass', 'damping', 'spring_stiffness',
-                'spring_preload', 'stroke_min', 'stroke_max', 'friction_force')
-_R, _L0, _A, _G0, _M, _B, _K, _F0, _XMIN, _XMAX, _FC = range(len(KERNEL_SLOTS))
+                'spring_preload', 'stroke_min', 'stroke_max', 'friction_force', 'friction_speed')
+_R, _L0, _A, _G0, _M, _B, _K, _F0, _XMIN, _XMAX, _FC, _VS = range(len(KERNEL_SLOTS))
 
 
 @numba.njit(cache=True)
@@ -158,8 +162,11 @@ def _rates(i, x, v, u, p, h):
     """(dI/dt, dx/dt, dv/dt): the coil's l, e, F and the spring's load through coil_rates; at an end stop at rest
     the armature stays while the net force presses it on."""
     slope = inductance_slope(x, p[_A], p[_G0])
+    load, dry = p[_F0] + p[_K] * x, p[_FC]
+    if p[_VS] > 0.0:   # the smooth friction: a load like the spring's, nothing to stick
+        load, dry = load + p[_FC] * np.tanh(v / p[_VS]), 0.0
     di, dv = coil_rates(i, v, u, p[_R], inductance(x, p[_L0], p[_A], p[_G0]), i * slope, 0.5 * i * i * slope,
-                        p[_M], p[_B], p[_F0] + p[_K] * x, p[_FC], h)
+                        p[_M], p[_B], load, dry, h)
     if v == 0.0 and ((x >= p[_XMAX] and dv > 0.0) or (x <= p[_XMIN] and dv < 0.0)):
         return di, 0.0, 0.0
     return di, v, dv
