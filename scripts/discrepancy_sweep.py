@@ -684,7 +684,9 @@ def write_report(results, path=DEFAULT_DOC, command=None):
     add(command or '.venv/bin/python scripts/discrepancy_sweep.py --report-only')
     add('```')
     add('')
-    add(f'{len(every)} cases (seeds {min(seeds) if seeds else "-"}..{max(seeds) if seeds else "-"}; '
+    skipped = sorted(set(range(min(seeds), max(seeds) + 1)) - set(seeds)) if seeds else []
+    add(f'{len(every)} cases (seeds {min(seeds) if seeds else "-"}..{max(seeds) if seeds else "-"}'
+        + (f', but for {", ".join(map(str, skipped))}, not run' if skipped else '') + '; '
         f'{len(unstable)} of them made no record: the plant\'s loop went unstable, listed at the end), '
         f'{", ".join(f"{d:g}" for d in durations)} s each, {sum(r.get("seconds", 0) for r in rs) / 60:.1f} '
         f'worker-minutes. Any case reruns alone with `.venv/bin/python scripts/discrepancy_sweep.py --case SEED` '
