@@ -10,8 +10,12 @@ import pytest
 import solenoid_generator as generator
 
 from emla_bench.scenarios import run_scenario
+from emla_bench.valve import VALVE_REFERENCE
+from emla_control.solenoid import SolenoidController
 from emla_core.physics.solenoid import SolenoidParameters
 from emla_identification.solenoid_online import ResistanceTracker
+from emla_sim.sensor import Sensor, SensorConfig
+from emla_sim.solenoid import SolenoidPlant
 
 EMLA = Path(sys.executable).parent / 'emla'
 
@@ -115,3 +119,38 @@ def test_trend_refuses_the_moving_coils_options_for_a_solenoid(valves):
         trend([valves[0]], actuator='solenoid', model='full')
     with pytest.raises(InputError, match="--actuator 'stepper'"):
         trend([valves[0]], actuator='stepper')
+
+
+
+def _valve_loop(law, delayed, duration=0.6, ts=1e-4):
+    """The valve's loop on the nominal plant, the voltage from `law(controller, current, position, reference)`
+    held over the interval it is computed for or, `delayed`, over the one after (a graph's computational delay:
+    the reference is then that interval's); the true position's RMS error from 0.2 s on, m."""
+    params, reference = SolenoidParameters(), VALVE_REFERENCE
+    start = float(np.mean(reference(0.0)[0]))
+    plant, sensor = SolenoidPlant(params, initial_state=(0.0, start, 0.0)), Sensor(SensorConfig(sample_period=ts))
+    controller = SolenoidController(params, control_period=ts)
+    controller.reset(start)
+    n = round(duration / ts)
+    references = np.column_stack(reference(controller.midpoint_times(ts * np.arange(n + 1)))).tolist()
+    positions, voltage = np.empty(n), 0.0
+    for k in range(n):
+        positions[k] = plant.position
+        current, position = sensor.measure(plant.current, plant.position)
+        if delayed:
+            applied, voltage = voltage, law(controller, current, position, references[k + 1])
+        else:
+            applied = law(controller, current, position, references[k])
+        plant.step(applied, ts)
+    late = slice(round(0.2 / ts), n)
+    return float(np.sqrt(np.mean((positions[late] - reference(ts * np.arange(n))[0][late]) ** 2)))
+
+
+def test_step_ahead_makes_up_for_one_interval_of_delay():
+    """A graph's controller commands the interval after the next: from the state its observer and its flux
+    predict for then, the valve tracks within 5 % of the undelayed loop's error (3 um); the law on the stale
+    state does more than twice as badly."""
+    undelayed = _valve_loop(SolenoidController.step, False)
+    assert undelayed < 5e-6
+    assert _valve_loop(SolenoidController.step_ahead, True) < 1.05 * undelayed
+    assert _valve_loop(SolenoidController.step, True) > 2.0 * undelayed

@@ -5,7 +5,8 @@
     run_scenario(name)                a named comparison (resistance_rise, mass_rise, thermal_drift,
                                       friction_and_spring, default; a solenoid valve's valve_resistance_rise):
                                       tracking metrics of each case; SCENARIOS holds them
-    scenario_parameters(scenario)     a scenario as the ROS graph runs it: {node: {parameter: value}}
+    scenario_parameters(scenario, directory)   a scenario as the ROS graph runs it: {node: {parameter:
+                                      value}} (a solenoid's model file written into directory)
 
 Examples
 --------

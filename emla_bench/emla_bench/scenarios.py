@@ -9,7 +9,7 @@ Metrics are taken over whole cycles from `evaluate_from` on: for a step change, 
 a few memory times to follow it (the response during that transient is in the run, not in the numbers).
 
 `default` is the Table 1 actuator under the adaptive controller alone; the ROS graph and `make demo` use it.
-`valve_resistance_rise` is a solenoid valve's (valve.py), in-process only.
+`valve_resistance_rise` is a solenoid valve's (valve.py).
 """
 import dataclasses
 import math
@@ -169,6 +169,9 @@ SCENARIOS = {
         'with a flux loop, fixed or adapted from the online resistance estimate',
         duration=1.2, evaluate_from=0.6),
 }
+
+# The scenario each actuator family runs when none is named (`emla launch --actuator solenoid`).
+DEFAULT_SCENARIOS = {'moving_coil': 'default', 'solenoid': 'valve_resistance_rise'}
 
 
 def catalogue(cases=False, width=106):

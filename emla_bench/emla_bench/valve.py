@@ -7,11 +7,13 @@ the controller fixed, and changed with the controller adapting; they share the s
 rises linearly by `rise` between the times `warming` (a coil's temperature rise, sped up), applied at each frame.
 """
 import dataclasses
+from typing import Self
 
 import numpy as np
 
 from emla_control.reference import StrokeReference
 from emla_control.solenoid import SolenoidController
+from emla_core.model_file import Model
 from emla_core.physics.solenoid import SolenoidParameters
 from emla_core.recording import Recording
 from emla_identification.solenoid_online import ResistanceTracker
@@ -44,6 +46,11 @@ class ValveScenario:
         'nominal': (False, False), 'changed_fixed': (True, False), 'changed_adaptive': (True, True)})
     compensated: tuple = ()
     actuator: str = 'solenoid'
+    graph_case: str = 'changed_adaptive'   # what `emla launch` runs (emla_bench.node_parameters)
+
+    def with_model(self, model: Model, source: str = 'model file') -> Self:
+        """This scenario on the solenoid of a model file (emla_core.model_file), the controller's model too."""
+        return dataclasses.replace(self, params=model.require('solenoid', source).solenoid())
 
     def resistance(self, t: float, changed: bool) -> float:
         """The plant's R at time t (s)."""

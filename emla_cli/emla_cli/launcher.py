@@ -248,11 +248,11 @@ class Monitor:
     """The launcher's view of the graph: simulated time, the done signal and the latest estimate, and the CPU
     time the processes spent in between (`cpu_times`: a Graph's)."""
 
-    def __init__(self, node, cpu_times):
+    def __init__(self, node, cpu_times, estimates=topics.PARAMETERS_TOPIC):
         from builtin_interfaces.msg import Time
 
         from emla_core.nodes.qos import LATCHED_QOS
-        from emla_msgs.msg import ParameterEstimate
+        from emla_msgs.msg import EffectEstimate, ParameterEstimate
 
         # Progress comes from the plant's true parameters, published at its start (t = 0) and every 10 ms of
         # simulated time: /clock ticks every control period, which would cost this process a wake-up each.
@@ -268,8 +268,8 @@ class Monitor:
         node.create_subscription(ParameterEstimate, topics.TRUE_PARAMETERS_TOPIC, self._on_tick, LATCHED_QOS,
                                  raw=True)
         node.create_subscription(Time, topics.DONE_TOPIC, self._on_done, LATCHED_QOS)
-        node.create_subscription(ParameterEstimate, topics.PARAMETERS_TOPIC, self._on_estimate, LATCHED_QOS,
-                                 raw=True)
+        node.create_subscription(ParameterEstimate if estimates == topics.PARAMETERS_TOPIC else EffectEstimate,
+                                 estimates, self._on_estimate, LATCHED_QOS, raw=True)
 
     def _on_tick(self, cdr):
         self.last_tick = (time.monotonic(), header_stamp_ns(cdr))
@@ -318,10 +318,13 @@ def write_params(directory, node, parameters):
     return path
 
 
-def launch(scenario, duration, bag, node_parameters):
+def launch(scenario, duration, bag, node_parameters, actuator='moving_coil'):
     """Run the graph: NODES as processes with `node_parameters` {node: {name: value}} (the plant's duration
     and start barrier are set here), and the recorder writing `bag`. Returns the contract's summary dict;
-    raises LaunchError when a node dies or the run stalls. Every process is stopped on return."""
+    raises LaunchError when a node dies or the run stalls. Every process is stopped on return.
+
+    The identifier's final estimate is a moving coil's /emla/parameters, or with `actuator` 'solenoid' the coil's
+    R on /emla/effects (emla_identification.nodes.identifier_node)."""
     from tqdm import tqdm
 
     from emla_core.nodes.run import ros_node
@@ -332,12 +335,13 @@ def launch(scenario, duration, bag, node_parameters):
                                                'start_subscribers': START_SUBSCRIBERS,
                                                'frames_subscribers': FRAMES_SUBSCRIBERS,
                                                'done_subscribers': DONE_SUBSCRIBERS},
-                  'recorder': {'bag': str(bag), 'scenario': scenario, 'hold_start': True}}
+                  'recorder': {'bag': str(bag), 'scenario': scenario, 'hold_start': True, 'actuator': actuator}}
+    solenoid = actuator == 'solenoid'
     with reserved_domain() as domain, tempfile.TemporaryDirectory(prefix='emla-launch-') as tmp, \
             Graph(domain_env(domain)) as graph, ros_node('emla_launch', domain) as (node, executor), \
             tqdm(total=round(duration, 6), desc=f'{scenario} (domain {domain})', file=sys.stderr,
                  bar_format='{desc}: {n:.3f}/{total} s simulated [{elapsed}]') as bar:
-        monitor = Monitor(node, graph.cpu_times)
+        monitor = Monitor(node, graph.cpu_times, topics.EFFECTS_TOPIC if solenoid else topics.PARAMETERS_TOPIC)
         for name in ('recorder', *NODES):
             graph.start(name, [str(BIN / 'emla'), 'run', name, '--params-file',
                                str(write_params(tmp, name, parameters.get(name, {})))])
@@ -350,10 +354,11 @@ def launch(scenario, duration, bag, node_parameters):
         final, rtf, cpu = monitor.final(), monitor.realtime_factor(), monitor.cpu_per_simulated_second()
         nodes = [{'name': n.name, 'pid': n.pid} for n in graph.nodes]
     contents = read_bag(bag)
-    if not contents.estimates or contents.estimates[-1][0] != final * 1e-9:
+    estimates = contents.effects if solenoid else contents.estimates
+    if not estimates or estimates[-1][0] != final * 1e-9:
         raise LaunchError(f'{bag}: the recorder missed the final estimate')
     return {'scenario': scenario, 'duration': duration, 'wall_time': round(time.monotonic() - started, 3),
-            'realtime_factor': rtf, 'cpu_per_simulated_second': cpu, 'final_parameters': contents.estimates[-1][1],
+            'realtime_factor': rtf, 'cpu_per_simulated_second': cpu, 'final_parameters': estimates[-1][1],
             'true_parameters': contents.truth[-1][1] if contents.truth else {}, 'bag': str(bag), 'nodes': nodes}
 
 

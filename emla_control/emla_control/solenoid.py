@@ -74,6 +74,7 @@ class SolenoidController:
     def reset(self, position: float) -> None:
         """Start at rest at `position` (m)."""
         self._x, self._v, self._integral, self._flux_command = float(position), 0.0, 0.0, None
+        self._voltage = 0.0   # the latest voltage returned
 
     def midpoint_times(self, t: np.ndarray) -> np.ndarray:
         """The times the reference is wanted at for intervals starting at t: their midpoints."""
@@ -96,8 +97,23 @@ class SolenoidController:
     def step(self, current: float, position: float, reference: Sequence[float]) -> float:
         """The voltage (V) to hold over the next interval, from the measured current (A), position (m) and the
         reference (s, s', s'', s''') at its midpoint."""
-        p, ts = self.params, self.control_period
         x, v = self._observe(current, position)
+        return self._law(current, x, v, reference)
+
+    def step_ahead(self, current: float, position: float, reference: Sequence[float]) -> float:
+        """The voltage (V) to hold over the interval after the next, from the current and position measured now
+        and the reference at that interval's midpoint: one interval of computational delay, as a graph of
+        processes has it. The law acts on the state it predicts for that interval's start: the position and
+        velocity from the observer, the current from the flux that the voltage held meanwhile (the last one
+        returned) makes."""
+        p, ts = self.params, self.control_period
+        x, _ = self._observe(current, position)
+        flux = float(p.inductance(x)) * current + ts * (self._voltage - p.resistance * current)
+        return self._law(flux / float(p.inductance(self._x)), self._x, self._v, reference)
+
+    def _law(self, current, x, v, reference):
+        """The voltage from the state (I, x, v) at an interval's start and the reference at its midpoint."""
+        p, ts = self.params, self.control_period
         half = 0.5 * ts   # the law acts over the interval: its state at the midpoint
         xm, vm = x + half * v, v
         s, ds, dds = reference[0], reference[1], reference[2]
@@ -115,6 +131,7 @@ class SolenoidController:
         limited = min(max(u, -p.supply_voltage), p.supply_voltage)
         if limited == u:   # the integral stops while the voltage is limited
             self._integral += error * ts
+        self._voltage = limited
         return limited
 
     def _observe(self, current, position):

@@ -68,8 +68,10 @@ RECORDED = {
     EFFECTS_TOPIC: (EFFECT_ESTIMATE, 'latched'),
     DONE_TOPIC: (TIME, 'latched'),
 }
-# Recorded topics only some runs publish (an identifier with effects): a recorder does not wait for them.
-OPTIONAL = (EFFECTS_TOPIC,)
+# Recorded topics only some runs publish, by actuator family: a recorder does not wait for them (a moving coil's
+# identifier publishes /emla/effects only with effects; a solenoid's follows the coil's R there, and not on
+# /emla/parameters, whose fields are the moving coil's).
+OPTIONAL = {'moving_coil': (EFFECTS_TOPIC,), 'solenoid': (PARAMETERS_TOPIC,)}
 # The suite's topics a run does not record, as above: the identifier's in ARX mode (a run's identifier is a
 # grey-box one, for the controller; the recorder's start barrier waits for a publisher of each recorded topic)
 # or a solenoid's observer's, and the frames of each period in one message, for the loop's nodes (recorded as

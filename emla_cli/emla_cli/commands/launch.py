@@ -10,8 +10,11 @@ start-up and stop included.
 """
 import signal
 import sys
+import tempfile
 import time
 from pathlib import Path
+
+from emla_core.parameters import FAMILIES
 
 from . import scenario_args
 from .output import BAG, check_outputs, emit_json, replace_bag
@@ -36,6 +39,9 @@ node pids) to --json or stdout. Scenarios (the graph runs the adaptive case):
 
 def add_arguments(parser):
     scenario_args.add_arguments(parser, MAX_DURATION)
+    parser.add_argument('--actuator', metavar='FAMILY', choices=FAMILIES,
+                        help='moving_coil or solenoid: a scenario of this family (without one, its default: '
+                             'default, or valve_resistance_rise); default: the scenario\'s')
     parser.add_argument('--bag', metavar='DIR', help='bag directory to record, new or empty (default: '
                                                      'bags/<scenario>-<time>)')
     parser.add_argument('--force', action='store_true', help='replace DIR if it holds a bag already, and FILE if '
@@ -60,13 +66,15 @@ def run(args):
     from emla_bench.node_parameters import scenario_parameters
     from emla_cli.launcher import LaunchError, launch
 
-    bag = Path(args.bag) if args.bag else default_bag(args.scenario)
+    scenario, duration = scenario_args.scenario_and_duration(args, args.actuator, FAMILIES)
+    bag = Path(args.bag) if args.bag else default_bag(scenario.name)
     check_outputs({'--json': args.json}, [args.model_file], args.force, {'--bag': (bag, BAG)})
-    scenario, duration = scenario_args.scenario_and_duration(args)
     replace_bag(bag, args.force)
     signal.signal(signal.SIGTERM, _interrupt)      # stop the graph as on Ctrl-C
     try:
-        summary = launch(scenario.name, duration, bag, scenario_parameters(scenario))
+        with tempfile.TemporaryDirectory(prefix='emla-launch-model-') as directory:  # a solenoid's model file
+            summary = launch(scenario.name, duration, bag, scenario_parameters(scenario, directory),
+                             scenario.actuator)
     except LaunchError as error:
         print(f'emla launch: {error}', file=sys.stderr)
         return 1

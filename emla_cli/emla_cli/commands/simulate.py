@@ -110,7 +110,7 @@ def write_bag(result, path, scenario, offset=0.0):
     with BagWriter(path, custom_data={'scenario': scenario, **{f'true_{k}': repr(v) for k, v in truth.items()}}) as bag:
         effects = [name for name in result.estimates if name not in PARAMETER_NAMES]  # estimated online, if any
         for topic, (msgtype, _) in topics.RECORDED.items():
-            if topic not in topics.OPTIONAL or effects:
+            if topic not in topics.OPTIONAL['moving_coil'] or effects:
                 bag.add_topic(topic, msgtype)
         for topic, (values, state, samples) in signals.items():
             for first, data in frames(values, samples, state):
@@ -170,7 +170,7 @@ def _solenoid(args):
     plant's true ones, the voltage command, the end time; the true parameters in the bag's metadata) or a CSV."""
     from emla_core.recording import write_csv
     from emla_sim.solenoid import record
-    if args.scenario != 'default' or args.fleet:
+    if args.scenario is not None or args.fleet:
         raise InputError('--actuator solenoid simulates its own run: no scenario or --fleet')
     _no_fleet_options(args)
     check_outputs({'--csv': args.csv}, [args.model_file], args.force, {'--bag': (args.bag, BAG)} if args.bag else None)

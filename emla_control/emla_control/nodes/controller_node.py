@@ -11,6 +11,10 @@ earlier (see emla_core.nodes) and offers it to the controller's guard. Without a
 bad frame, reported: see emla_core.nodes) it holds the last voltage over the period from t + Tc, still published so
 the lockstep goes on. With `adapt_effects` it takes the effect estimate of the same stamp (/emla/effects) with
 each estimate: the friction and spring the identifier estimates online are compensated like the model's.
+
+With `actuator: solenoid` the law is a solenoid's (emla_control.solenoid, of `model_file`; empty: the valve of
+issue 24), from the state it predicts one period ahead (SolenoidController.step_ahead); adaptive, it takes the
+coil's R the identifier follows (/emla/effects) once that estimate is from `min_samples` samples.
 """
 import collections
 import copy
@@ -21,15 +25,17 @@ import numpy as np
 from rclpy.qos import QoSProfile
 
 from emla_control import controller as law
+from emla_control import solenoid as solenoid_law
 from emla_control.reference import StrokeReference
 from emla_core import messages, topics
+from emla_core.errors import InputError
 from emla_core.nodes.faults import Faults
 from emla_core.nodes.frames import FrameSets, frame_publishers, subscribe_signal_frames
 from emla_core.nodes.node import EmlaNode
 from emla_core.nodes.param_specs import ACTUATOR_FIELDS, Spec, actuator_specs, declare, period_samples
 from emla_core.nodes.qos import LATCHED_QOS
 from emla_core.nodes.run import run
-from emla_core.parameters import ActuatorParameters
+from emla_core.parameters import FAMILIES, ActuatorParameters
 from emla_msgs.msg import EffectEstimate, ParameterEstimate
 
 BLOCK = 100  # control periods of reference evaluated at once
@@ -49,7 +55,14 @@ SPECS = [
     Spec('bandwidth', BANDWIDTH, 'closed-loop bandwidth, Hz', 0.1, 1e4),
     Spec('damping_ratio', law.DEFAULT_DAMPING, 'closed-loop damping ratio, 1', 0.05, 10.0),
     Spec('observer_bandwidth', law.DEFAULT_OBSERVER_BANDWIDTH, 'velocity observer bandwidth, Hz', 0.1, 1e5),
+    Spec('actuator', 'moving_coil', f'the actuator family, of {list(FAMILIES)}'),
+    Spec('model_file', '', 'actuator solenoid: the model file of the law (emla identify --actuator solenoid '
+                           '--model-out); empty: the valve of issue 24'),
+    Spec('flux_time', solenoid_law.DEFAULT_FLUX_TIME, 'actuator solenoid: time constant of the flux loop, s',
+         1e-6, 1.0),
     Spec('stroke', StrokeReference.stroke, 'reference stroke, m', 1e-6, 1.0),
+    Spec('reference_offset', StrokeReference.offset, 'position the reference cycle starts from and returns to, m',
+         -1.0, 1.0),
     Spec('reference_period', StrokeReference.period, 'reference out-and-back period, s', 1e-4, 1e3),
     Spec('transition', StrokeReference.transition, 'reference move duration (<= half a period), s',
                 1e-5, 1e3),
@@ -81,6 +94,57 @@ def warm_up(controller):
     trial.step_ahead(0.0, 0.0, (0.0,) * 4)
 
 
+class SolenoidLaw:
+    """A solenoid's law (emla_control.solenoid) behind the interface of the moving coil's that the node drives;
+    adaptive, it takes R from the effect estimates (the coil's resistance the identifier follows)."""
+
+    def __init__(self, controller, adaptive, min_samples):
+        self.law, self.adapt_effects, self.min_samples = controller, adaptive, min_samples
+
+    def midpoint_times(self, t):
+        return self.law.midpoint_times(t)
+
+    def reset(self, position):
+        self.law.reset(position)
+
+    def start_ahead(self, current, position, reference):
+        """The voltage of the period that starts at the first state (no delay: nothing was commanded before)."""
+        self.law.reset(position)
+        return self.law.step(current, position, reference)
+
+    def step_ahead(self, current, position, reference):
+        return self.law.step_ahead(current, position, reference)
+
+    def update_parameters(self, values, samples):
+        if samples >= self.min_samples and 'resistance' in values:
+            self.law.update_resistance(values['resistance'])
+
+
+def solenoid_controller(p):
+    """The SolenoidLaw of a solenoid's controller node (InputError for what only a moving coil's takes)."""
+    from emla_core.model_file import read
+    from emla_core.physics.solenoid import SolenoidParameters
+    if p.coulomb_force or p.spring_stiffness or p.adapt_effects:
+        raise InputError('actuator solenoid: its spring and friction are in its model file (no coulomb_force, '
+                         'spring_stiffness or adapt_effects)')
+    params = read(p.model_file).require('solenoid', p.model_file).solenoid() if p.model_file else SolenoidParameters()
+    return SolenoidLaw(solenoid_law.SolenoidController(
+        params, control_period=p.control_period, bandwidth=p.bandwidth, damping=p.damping_ratio,
+        flux_time=p.flux_time, observer_bandwidth=p.observer_bandwidth), p.adaptive, p.min_samples)
+
+
+def moving_coil_controller(p):
+    """The InverseSystemController of a moving coil's controller node."""
+    if p.model_file:
+        raise InputError('model_file is for actuator solenoid (a moving coil\'s law takes its parameters)')
+    model = ActuatorParameters(**{name: getattr(p, name) for name in ACTUATOR_FIELDS})
+    return law.InverseSystemController(
+        model, bandwidth=p.bandwidth, damping=p.damping_ratio, control_period=p.control_period,
+        supply_voltage=model.supply_voltage, observer_bandwidth=p.observer_bandwidth,
+        min_samples=p.min_samples, max_jump=p.max_jump,
+        effects={name: getattr(p, name) for name in law.EFFECTS}, adapt_effects=p.adaptive and p.adapt_effects)
+
+
 class ControllerNode(EmlaNode):
     NAME = 'controller'
 
@@ -90,14 +154,12 @@ class ControllerNode(EmlaNode):
         self.samples_per_period = period_samples(p.sample_period, p.control_period)
         self.sample_period = p.sample_period
         self.step_ns = topics.to_ns(p.sample_period)
-        model = ActuatorParameters(**{name: getattr(p, name) for name in ACTUATOR_FIELDS})
-        self.controller = law.InverseSystemController(
-            model, bandwidth=p.bandwidth, damping=p.damping_ratio, control_period=p.control_period,
-            supply_voltage=model.supply_voltage, observer_bandwidth=p.observer_bandwidth,
-            min_samples=p.min_samples, max_jump=p.max_jump,
-            effects={name: getattr(p, name) for name in law.EFFECTS}, adapt_effects=p.adaptive and p.adapt_effects)
+        if p.actuator not in FAMILIES:
+            raise InputError(f'actuator {p.actuator!r} is not one of {", ".join(FAMILIES)}')
+        solenoid = p.actuator == 'solenoid'
+        self.controller = solenoid_controller(p) if solenoid else moving_coil_controller(p)
         warm_up(self.controller)
-        self.reference = StrokeReference(p.stroke, p.reference_period, p.transition)
+        self.reference = StrokeReference(p.stroke, p.reference_period, p.transition, p.reference_offset)
         self.period_ns = self.samples_per_period * self.step_ns
         self.block = (None, None, None)  # (first period, references at the midpoints, reference samples)
         self.adaptation_ns = topics.to_ns(p.adaptation_period) if p.adaptive else None
@@ -105,7 +167,7 @@ class ControllerNode(EmlaNode):
         # runs a period ahead, so a second may come while the first waits for its estimate
         self.samples = collections.deque()
         self.voltage = 0.0  # the latest command
-        self.estimates = {}  # stamp -> ParameterEstimate
+        self.estimates = None if solenoid else {}  # stamp -> ParameterEstimate
         self.effect_estimates = {} if self.controller.adapt_effects else None  # stamp -> EffectEstimate
         self.started = False  # the law has had a usable sample
         self.commanded = False
@@ -117,7 +179,7 @@ class ControllerNode(EmlaNode):
             self.on_states, Faults(self), p.sample_period, subscribe=not p.measured_frames)
         if p.measured_frames:
             subscribe_signal_frames(self, topics.MEASURED_FRAMES_TOPIC, self.states)
-        if p.adaptive:
+        if p.adaptive and not solenoid:
             self.create_subscription(ParameterEstimate, topics.PARAMETERS_TOPIC, self.on_estimate, ESTIMATE_QOS)
         if self.effect_estimates is not None:
             self.create_subscription(EffectEstimate, topics.EFFECTS_TOPIC, self.on_effects, ESTIMATE_QOS)
@@ -144,15 +206,17 @@ class ControllerNode(EmlaNode):
             measured = math.isfinite(current) and math.isfinite(position)
             due = t - self.adaptation_ns if self.adaptation_ns else 0  # the stamp of the estimate taken at t, if any
             if measured and due > 0 and due % self.adaptation_ns == 0:
-                if due not in self.estimates or self.effect_estimates is not None and due not in self.effect_estimates:
+                if any(estimates is not None and due not in estimates
+                       for estimates in (self.estimates, self.effect_estimates)):
                     return  # wait for it
-                msg = self.estimates[due]
-                values = messages.estimate_values(msg)
+                values, samples = {}, due // self.step_ns  # (the samples of a solenoid's R: all up to its stamp)
+                if self.estimates is not None:
+                    values, samples = messages.estimate_values(self.estimates[due]), self.estimates[due].samples_used
                 if self.effect_estimates is not None:
                     values.update(messages.effect_values(self.effect_estimates[due]))
-                self.controller.update_parameters({k: v for k, v in values.items() if math.isfinite(v)},
-                                                  msg.samples_used)
-            self.estimates = {stamp: msg for stamp, msg in self.estimates.items() if stamp > due}
+                self.controller.update_parameters({k: v for k, v in values.items() if math.isfinite(v)}, samples)
+            if self.estimates:
+                self.estimates = {stamp: msg for stamp, msg in self.estimates.items() if stamp > due}
             if self.effect_estimates:
                 self.effect_estimates = {stamp: msg for stamp, msg in self.effect_estimates.items() if stamp > due}
             self.samples.popleft()

@@ -16,7 +16,7 @@ import logging
 import math
 import os
 import struct
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from io import BytesIO
 from pathlib import Path, PurePath
 
@@ -33,9 +33,11 @@ from zstandard import ZstdError
 
 from emla_core.errors import InputError
 from emla_core.files import regular_file
-from emla_core.messages import estimate_std, estimate_values, read_frame_cdr
+from emla_core.messages import effect_values, estimate_std, estimate_values, read_frame_cdr
 from emla_core.recording import Recording
 from emla_core.topics import (
+    EFFECT_ESTIMATE,
+    EFFECTS_TOPIC,
     NAMESPACE,
     PARAMETER_ESTIMATE,
     PARAMETERS_TOPIC,
@@ -65,6 +67,8 @@ class BagContents:
     estimates: list        # [(time_s, {name: value}, {name: std})] from /emla/parameters, in time order
     truth: list            # [(time_s, {name: value})] from /emla/plant/parameters (simulated runs only)
     metadata: dict         # custom_data of the bag
+    effects: list = field(default_factory=list)   # as estimates, from /emla/effects (the parameters
+                                                              # of effects estimated online; a solenoid's R)
 
 
 @dataclass(frozen=True)
@@ -427,7 +431,7 @@ def read_bag(path):
     """The signals (assembled from SampleFrames), parameter estimates and custom metadata of a bag."""
     path = Path(path)
     _, custom = bag_files(path)
-    frames, estimates, truth, skipped = {}, [], [], []
+    frames, estimates, truth, effects, skipped = {}, [], [], [], []
     with reporting_skipped(skipped):
         for topic, msgtype, stamp, data in iter_serialized(path, on_corrupt=skipped.append):
             if msgtype == SAMPLE_FRAME and topic.startswith(NAMESPACE):
@@ -440,6 +444,10 @@ def read_bag(path):
                     truth.append((stamp_s, values))
                 else:
                     estimates.append((stamp_s, values, _finite(estimate_std(msg))))
+            elif msgtype == EFFECT_ESTIMATE and topic == EFFECTS_TOPIC:
+                msg = deserialize(path, topic, msgtype, stamp, data)
+                effects.append((stamp_to_ns(msg.header.stamp) * 1e-9, _finite(effect_values(msg)),
+                                _finite(dict(zip(msg.names, (float(s) for s in msg.std))))))
         if not frames:
             raise InputError(f'{path}: no SampleFrame topics under {NAMESPACE}')
         recording, spans = _assemble(frames, path, custom)
@@ -447,9 +455,9 @@ def read_bag(path):
         absent = [topic[len(NAMESPACE):] for topic, msgtype in bag_topics(path).items()
                   if msgtype == SAMPLE_FRAME and topic.startswith(NAMESPACE) and topic[len(NAMESPACE):] not in frames]
         warn_cost(data_cost(path, spans, recording.sample_period, absent))
-    estimates.sort(key=lambda e: e[0])
-    truth.sort(key=lambda e: e[0])
-    return BagContents(recording=recording, estimates=estimates, truth=truth, metadata=custom)
+    for series in (estimates, truth, effects):
+        series.sort(key=lambda e: e[0])
+    return BagContents(recording=recording, estimates=estimates, truth=truth, metadata=custom, effects=effects)
 
 
 def warn_cost(cost):

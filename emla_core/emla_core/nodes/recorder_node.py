@@ -4,16 +4,17 @@ Messages are stored at their header stamp (simulated time), so two runs of the s
 bag. Splits of `split_size` bytes are finished and listed in metadata.yaml as they fill, so a SIGKILL loses
 at most the split being written. SIGINT/SIGTERM: keep receiving until the topics are quiet for
 `drain_time`, then finish the split and exit 0. Custom data of the bag: `scenario` and `true_<name>` (the
-latest /emla/plant/parameters values, as strings).
+latest /emla/plant/parameters values that are numbers, as strings).
 
 Outside the loop, the recorder need not handle each message as it comes: it takes what came every 10 ms
 (its POLL_PERIOD, see EmlaNode), which spares it a wake-up per message.
 
 With `hold_start` (as `emla launch` runs it) the recorder subscribes to the plant's start topic
-(/emla/position, see emla_core.nodes) only once each of its other topics (but the OPTIONAL ones of emla_core.topics)
-has a matched publisher: the lockstep plant cannot start before the recorder hears every node, so the bag
-begins at t = 0.
+(/emla/position, see emla_core.nodes) only once each of its other topics (but those emla_core.topics.OPTIONAL
+has for its `actuator`) has a matched publisher: the lockstep plant cannot start before the recorder hears every
+node, so the bag begins at t = 0.
 """
+import math
 import sys
 import time
 
@@ -26,7 +27,7 @@ from emla_core.errors import InputError
 from emla_core.nodes.node import EmlaNode
 from emla_core.nodes.param_specs import Spec, declare
 from emla_core.nodes.run import run
-from emla_core.parameters import PARAMETER_NAMES
+from emla_core.parameters import FAMILIES
 
 # Recorded topics -> message class (emla_core.topics.RECORDED). Every one is published reliable and
 # transient local (see emla_core.nodes).
@@ -40,6 +41,8 @@ SPECS = [
     Spec('split_size', 128 * 1024, 'bytes of messages per MCAP split; a SIGKILL loses at most one, B',
                 4096, 2**30),
     Spec('hold_start', False, 'join the plant start barrier only once every other topic has a publisher'),
+    Spec('actuator', 'moving_coil', f'the family of the run\'s actuator, of {list(FAMILIES)}: which topics '
+                                    'hold_start does not wait for'),
     Spec('drain_time', 0.3, 'after SIGINT/SIGTERM, record until no message came for this long, s',
                 0.0, 10.0),
 ]
@@ -54,6 +57,8 @@ class Recorder(EmlaNode):
         self.config = declare(self, SPECS)
         if not self.config.bag:
             raise InputError('parameter `bag` (output directory) is required')
+        if self.config.actuator not in FAMILIES:
+            raise InputError(f'actuator {self.config.actuator!r} is not one of {", ".join(FAMILIES)}')
         self.bag = BagWriter(self.config.bag, split_size=self.config.split_size,
                              custom_data={'scenario': self.config.scenario})
         self.topic_subscriptions = {topic: self._subscribe(topic) for topic in TOPICS
@@ -66,9 +71,9 @@ class Recorder(EmlaNode):
         return self.create_subscription(TOPICS[topic], topic, self._receiver(topic, TOPICS[topic]), QOS, raw=True)
 
     def _join_start(self):
-        # (an optional topic's publisher, if any, is the identifier's, matched with its /emla/parameters)
+        # (an optional topic's publisher, if any, is the identifier's, matched with its other one)
         if all(s.get_publisher_count() for topic, s in self.topic_subscriptions.items()
-               if topic not in topics.OPTIONAL):
+               if topic not in topics.OPTIONAL[self.config.actuator]):
             self.holding.cancel()
             self._subscribe(topics.START_TOPIC)
             self.get_logger().info(f'every publisher matched; subscribed to {topics.START_TOPIC}')
@@ -81,7 +86,7 @@ class Recorder(EmlaNode):
             self.bag.write(topic, messages.header_stamp_ns(cdr), cdr)
             if topic == topics.TRUE_PARAMETERS_TOPIC:
                 truth = messages.estimate_values(deserialize_message(cdr, message_class))
-                self.bag.custom_data.update({f'true_{k}': repr(float(truth[k])) for k in PARAMETER_NAMES})
+                self.bag.custom_data.update({f'true_{k}': repr(v) for k, v in truth.items() if math.isfinite(v)})
         return receive
 
     def drain(self, executor, limit=10.0):

@@ -6,7 +6,13 @@ frames of `parameters_period`.
 
 Effects by name (`effects`), tuned by `effect_parameters` entries 'effect.field=value'; timed parameter
 changes from the equally long arrays change_times / change_parameters / change_factors.
+
+With `actuator: solenoid` the plant is a solenoid (emla_sim.solenoid; docs/physics.md §9) of `model_file` (a
+solenoid's model file; empty: SolenoidParameters(), the valve of issue 24), which takes no effects; its changes
+(of SolenoidParameters fields) take effect at the first sample instant at or after their time, and its true
+parameters go out as R, m and B (the ParameterEstimate's other fields are the moving coil's: NaN).
 """
+import math
 import sys
 import time
 
@@ -22,7 +28,7 @@ from emla_core.nodes.node import EmlaNode
 from emla_core.nodes.param_specs import ACTUATOR_FIELDS, Spec, actuator_specs, declare, period_samples
 from emla_core.nodes.qos import CLOCK_QOS, FRAME_QOS, LATCHED_QOS
 from emla_core.nodes.run import run
-from emla_core.parameters import PARAMETER_NAMES, ActuatorParameters
+from emla_core.parameters import FAMILIES, PARAMETER_NAMES, ActuatorParameters
 from emla_core.physics import EFFECTS, make_effect
 from emla_msgs.msg import ParameterEstimate, SampleFrame, SignalFrames
 from emla_sim.effects import ParameterChange
@@ -36,6 +42,9 @@ SPECS = [
     Spec('duration', 1.0, 'simulated time to run, then publish done and exit; 0 = until stopped, s',
                 0.0, 1e6),
     Spec('initial_position', 0.0, 'position at t = 0 (at rest, no current), m', -1.0, 1.0),
+    Spec('actuator', 'moving_coil', f'the actuator family, of {list(FAMILIES)}'),
+    Spec('model_file', '', 'actuator solenoid: its model file (emla identify --actuator solenoid --model-out); '
+                           'empty: the valve of issue 24'),
     *actuator_specs('true'),
     Spec('effects', Parameter.Type.STRING_ARRAY,
          f'effects by name, of {sorted(n for n, e in EFFECTS.items() if not e.simulation_refusal)}'),
@@ -43,7 +52,7 @@ SPECS = [
                 "settings of those effects, 'effect.field=value' (SI units, see docs/physics.md)"),
     Spec('change_times', Parameter.Type.DOUBLE_ARRAY, 'times of step parameter changes, s'),
     Spec('change_parameters', Parameter.Type.STRING_ARRAY,
-                f'parameter each change scales, of {PARAMETER_NAMES}'),
+                f'parameter each change scales, of {PARAMETER_NAMES} (a solenoid\'s: of SolenoidParameters)'),
     Spec('change_factors', Parameter.Type.DOUBLE_ARRAY, 'factor each change multiplies it by, 1'),
     Spec('parameters_period', topics.ESTIMATE_PERIOD,
                 'publish the true parameters and frames at multiples of this (and after each change), s', 1e-6, 1e6),
@@ -75,6 +84,52 @@ def changes_from(times, parameters, factors):
     return [ParameterChange(t, name, factor) for t, name, factor in zip(times, parameters, factors)]
 
 
+class SolenoidStepper:
+    """A solenoid plant as the node steps it: (I, x, v) after each interval, its parameter changes (times,
+    names, factors) applied at the first sample instant at or after their time, its true parameters."""
+
+    def __init__(self, params, times, names, factors, initial_position):
+        from emla_sim.solenoid import SolenoidPlant
+        if not len(times) == len(names) == len(factors):
+            raise InputError('change_times, change_parameters and change_factors must have the same length')
+        fields = params.__dataclass_fields__
+        for name, factor in zip(names, factors):
+            if name not in fields:
+                raise InputError(f'change_parameters: {name!r} is not a solenoid\'s parameter ({", ".join(fields)})')
+            if not (math.isfinite(factor) and factor > 0):
+                raise InputError(f'change_factors: {factor!r} is not a positive factor')
+        self.changes = sorted(zip(times, names, factors))
+        self.plant = SolenoidPlant(params, initial_state=(0.0, initial_position, 0.0))
+        self._apply_due()
+
+    current = property(lambda self: self.plant.current)
+    position = property(lambda self: self.plant.position)
+
+    def step(self, voltage, dt):
+        self.plant.step(voltage, dt)
+        self._apply_due()
+        return self.plant.current, self.plant.position, self.plant.velocity
+
+    def _apply_due(self):
+        while self.changes and self.changes[0][0] <= self.plant.time + 1e-9:
+            _, name, factor = self.changes.pop(0)
+            try:
+                self.plant.change(**{name: getattr(self.plant.params, name) * factor})
+            except ValueError as exc:
+                raise InputError(f'a change of {name} by {factor}: {exc}') from None
+
+    def true_values(self):
+        params = self.plant.params
+        return {'resistance': params.resistance, 'mass': params.mass, 'damping': params.damping}
+
+
+def solenoid_parameters(model_file):
+    """The SolenoidParameters of a solenoid's model file (empty: the defaults, the valve of issue 24)."""
+    from emla_core.model_file import read
+    from emla_core.physics.solenoid import SolenoidParameters
+    return read(model_file).require('solenoid', model_file).solenoid() if model_file else SolenoidParameters()
+
+
 class PlantNode(EmlaNode):
     NAME = 'plant'
 
@@ -89,11 +144,26 @@ class PlantNode(EmlaNode):
         self.awaited_readers = {topics.START_TOPIC: p.start_subscribers,
                                 topics.MEASURED_FRAMES_TOPIC: p.frames_subscribers,
                                 topics.DONE_TOPIC: p.done_subscribers}
-        self.changes = changes_from(p.change_times, p.change_parameters, p.change_factors)
-        params = ActuatorParameters(**{name: getattr(p, name) for name in ACTUATOR_FIELDS})
+        if p.actuator not in FAMILIES:
+            raise InputError(f'actuator {p.actuator!r} is not one of {", ".join(FAMILIES)}')
+        if p.actuator == 'solenoid':
+            if p.effects:
+                raise InputError('actuator solenoid takes no effects (the physics layer\'s are the moving coil\'s)')
+            params = solenoid_parameters(p.model_file)
+            self.change_times = list(p.change_times)
+            self.plant = SolenoidStepper(params, p.change_times, p.change_parameters, p.change_factors,
+                                         p.initial_position)
+            self.true_values = self.plant.true_values
+        else:
+            if p.model_file:
+                raise InputError('model_file is for actuator solenoid (a moving coil takes its parameters)')
+            params = ActuatorParameters(**{name: getattr(p, name) for name in ACTUATOR_FIELDS})
+            changes = changes_from(p.change_times, p.change_parameters, p.change_factors)
+            self.change_times = [change.time for change in changes]
+            self.plant = Plant(params, effects_from(p.effects, p.effect_parameters), changes,
+                               initial_state=(0.0, p.initial_position, 0.0))
+            self.true_values = lambda: self.plant.true_parameters().physical()
         self.supply = params.supply_voltage
-        self.plant = Plant(params, effects_from(p.effects, p.effect_parameters), self.changes,
-                           initial_state=(0.0, p.initial_position, 0.0))
         self.parameters_step = topics.to_ns(p.parameters_period)
         self.sample_period = p.sample_period
         self.period = 0
@@ -151,7 +221,7 @@ class PlantNode(EmlaNode):
                                  'position': (start + self.step, [state[1] for state in states])})
             self.period += 1
             self.clock.publish(Clock(clock=messages.time_msg(self.now)))
-            changed = any(start * 1e-9 < c.time <= self.now * 1e-9 for c in self.changes)
+            changed = any(start * 1e-9 < t <= self.now * 1e-9 for t in self.change_times)
             if changed or self.now % self.parameters_step == 0 or self.period == self.periods:
                 self.publish_truth()
             if self.period == self.periods:
@@ -172,8 +242,8 @@ class PlantNode(EmlaNode):
                 samples = np.concatenate([samples for _, samples in frames])
                 self.frames[name].publish(messages.frame_cdr(frames[0][0], self.sample_period, samples))
                 frames.clear()
-        self.truth.publish(messages.estimate_message(self.now, self.plant.true_parameters().physical(),
-                                                   std=dict.fromkeys(PARAMETER_NAMES, 0.0)))
+        values = self.true_values()
+        self.truth.publish(messages.estimate_message(self.now, values, std=dict.fromkeys(values, 0.0)))
 
     def stop(self, executor):
         if not self.finished and self.barrier.is_canceled():
