@@ -38,6 +38,10 @@ class ResistanceEstimate:
         return ({'resistance': self.resistance}, {'resistance': self.std},
                 (('resistance',), np.array([[self.std ** 2]])))
 
+    def problems(self) -> list[str]:
+        """What the node's status warns of (nothing: R alone has no fit check)."""
+        return []
+
 
 class ResistanceTracker(ResistanceEstimate):
     """R of a solenoid from frames of its voltage, current and position (SI units).
@@ -98,3 +102,91 @@ class ResistanceTracker(ResistanceEstimate):
         self._last = None
 
     gap = restart   # the name the identifier node gives it (OnlineIdentifier.gap)
+
+
+class WindowedSolenoid:
+    """The whole solenoid model online (docs/physics.md §9.1): the offline identification (identify_solenoid) of
+    the latest `window` s of samples, refitted each time `refit_period` s of new samples have come (a moving
+    horizon; R, L0, a, g0, m, B, k, F0 with their one-sigmas and the fit check of each equation).
+
+    A fit that fails (a window in which the armature does not move between its stops, say) keeps the previous
+    estimate; `failure` says why. A gap in the samples (`gap`) empties the window: the identification needs
+    consecutive samples.
+
+    Parameters
+    ----------
+    sample_period : float
+        Ts (s).
+    window : float
+        The samples each fit takes, the latest ones (s).
+    refit_period : float
+        New samples between fits (s).
+
+    Examples
+    --------
+    >>> model = WindowedSolenoid(2e-4, window=2.0, refit_period=0.5)
+    >>> model.update(voltage, current, position)      # doctest: +SKIP
+    >>> model.result.parameters['gap'], model.result.warnings()   # doctest: +SKIP
+    """
+
+    def __init__(self, sample_period: float, *, window: float = 2.0, refit_period: float = 0.5) -> None:
+        if not (sample_period > 0 and window > 0 and refit_period > 0):
+            raise ValueError('sample_period, window and refit_period must be positive')
+        self.sample_period = float(sample_period)
+        self._size = max(1, round(window / sample_period))
+        self._every = max(1, round(refit_period / sample_period))
+        self._frames = []           # (3, n) arrays of the samples since the window's start, kept until a fit
+        self._new = 0               # samples since the last fit
+        self.result = None          # the latest SolenoidResult
+        self.failure = None         # why the latest fit failed (None: it did not)
+
+    @property
+    def effects(self) -> tuple[str, ...]:
+        """The names it publishes (SOLENOID_PARAMETER_NAMES)."""
+        from emla_core.physics.solenoid import SOLENOID_PARAMETER_NAMES
+        return SOLENOID_PARAMETER_NAMES
+
+    @property
+    def samples(self) -> int:
+        """The samples of the latest fit (0 before the first)."""
+        return self.result.samples if self.result is not None else 0
+
+    def update(self, voltage: ArrayLike, current: ArrayLike, position: ArrayLike) -> None:
+        """Take a frame of consecutive samples (the voltage held from each sample to the next); refit when due."""
+        frame = np.vstack([np.asarray(v, dtype=float).reshape(-1) for v in (voltage, current, position)])
+        self._frames.append(frame)
+        self._new += frame.shape[1]
+        if self._new >= self._every:
+            self._new = 0
+            self._refit()
+
+    def _refit(self):
+        from emla_core.errors import InputError
+
+        from .solenoid import identify_solenoid
+        window = np.hstack(self._frames)[:, -self._size:]   # joined only here: frames may be single samples
+        self._frames = [window]
+        u, i, x = window
+        try:
+            self.result = identify_solenoid(sample_period=self.sample_period, voltage=u, current=i, position=x)
+            self.failure = None
+        except InputError as exc:
+            self.failure = str(exc)
+
+    def gap(self) -> None:
+        """The next frame does not follow on from the last one: the window starts again."""
+        self._frames, self._new = [], 0
+
+    def full_estimate(self) -> tuple[dict, dict, tuple]:
+        """(values, one-sigmas, (names, covariance)) of the latest fit, as OnlineIdentifier.full_estimate; NaN
+        before the first."""
+        names = self.effects
+        if self.result is None:
+            nan = dict.fromkeys(names, float('nan'))
+            return nan, dict(nan), (names, np.full((len(names),) * 2, np.nan))
+        return dict(self.result.parameters), dict(self.result.std), (names, self.result.covariance)
+
+    def problems(self) -> list[str]:
+        """What the node's status warns of: a failed latest fit, the latest result's warnings (fit check)."""
+        return ([f'the latest fit failed: {self.failure}'] if self.failure else []) + \
+            (self.result.warnings() if self.result is not None else [])

@@ -4,7 +4,9 @@ the recursion of `emla identify --model arx`: from theta = 0 and P = 1e6 I, with
 
 Publishes /emla/parameters (latched; with model arx /emla/arx_model instead: a, b, poles, zeros, fit and MSE;
 with `effects` or a `model_file` also /emla/effects, the effects' parameters estimated along, same stamps; with
-`actuator: solenoid` the coil's R on /emla/effects alone, and with `position_observer` the armature's position
+`actuator: solenoid` the coil's R on /emla/effects alone, with `online_model` the whole solenoid model refitted over
+a moving window there instead (emla_identification.solenoid_online.WindowedSolenoid; no model_file), and with
+`position_observer` the armature's position
 estimated from the voltage and current, without a position input, on /emla/position_estimate, a frame per frame in)
 at every multiple of `publish_period` that ends a control period, stamped with the end of the data used, and a
 final estimate at the end time /emla/plant/done announces (see emla_core.nodes); /diagnostics with the
@@ -58,6 +60,11 @@ SPECS = [
     Spec('position_observer', False, 'actuator solenoid without a position sensor: the armature\'s position '
                                      'estimated from the coil\'s voltage and current alone (its flux linkage, R '
                                      'tracked at the end stops), on /emla/position_estimate; needs current_noise'),
+    Spec('online_model', False, 'actuator solenoid: identify the whole model (R, L0, a, g0, m, B, k, F0) from the '
+                                'voltage, current and position over the latest window_time, refitted every '
+                                'refit_period, on /emla/effects (no model_file needed)'),
+    Spec('window_time', 2.0, 'online_model: the samples each fit takes, the latest ones, s', 1e-3, 1e4),
+    Spec('refit_period', 0.5, 'online_model: new samples between fits, s', 1e-4, 1e4),
     Spec('current_noise', 0.0, 'position_observer: the current\'s noise standard deviation (emla identify '
                                '--actuator solenoid --json: fit.electrical.rms / R), A', 0.0, 10.0),
     Spec('model', 'full', f'grey-box model, one of {sorted(MODEL_PARAMETERS)}, or arx (black box: orders, '
@@ -254,6 +261,8 @@ class IdentifierNode(EmlaNode):
         self.solenoid = p.actuator == 'solenoid'
         if p.position_observer and not self.solenoid:
             raise InputError('position_observer is for actuator solenoid (a moving coil\'s position is measured)')
+        if p.online_model and not self.solenoid:
+            raise InputError('online_model is for actuator solenoid (a moving coil\'s model is the grey box\'s)')
         if self.solenoid:
             self.identifier = solenoid_tracker(p)
             self.feed = self.identifier.update
@@ -424,15 +433,18 @@ class IdentifierNode(EmlaNode):
 
 
     def publish_resistance(self):
-        """Publish a solenoid's R now (/emla/effects); a function that gives its diagnostic status."""
+        """Publish a solenoid's R, or its whole model (online_model), now (/emla/effects); a function that gives its
+        diagnostic status: WARN before the first estimate, and for the model's failed fit or its warnings."""
         values, std, _ = self.identifier.full_estimate()
         self.effect_estimates.publish(messages.effect_message(self.covered, values, std))
         samples = self.identifier.samples
+        problems = self.identifier.problems()
+        message = f'solenoid: R {values["resistance"]:.6g} ohm from {samples} samples'
         return lambda: DiagnosticStatus(
-            level=DiagnosticStatus.OK if samples else DiagnosticStatus.WARN, name='emla/identifier',
-            hardware_id='emla', message=f'solenoid: R {values["resistance"]:.6g} ohm from {samples} samples',
-            values=[KeyValue(key='samples', value=str(samples)),
-                    KeyValue(key='resistance_std', value=f'{std["resistance"]:g}')])
+            level=DiagnosticStatus.OK if samples and not problems else DiagnosticStatus.WARN, name='emla/identifier',
+            hardware_id='emla', message='; '.join([message, *problems]),
+            values=[KeyValue(key='samples', value=str(samples))]
+            + [KeyValue(key=f'{name}_std', value=f'{value:g}') for name, value in std.items()])
 
 
 def solenoid_tracker(p):
@@ -441,7 +453,12 @@ def solenoid_tracker(p):
     forgetting)."""
     from emla_core.model_file import read
     from emla_identification.solenoid_observer import PositionObserver
-    from emla_identification.solenoid_online import ResistanceTracker
+    from emla_identification.solenoid_online import ResistanceTracker, WindowedSolenoid
+    if p.online_model:
+        if p.model_file or p.position_observer or p.model != 'full' or p.effects or p.input_topics:
+            raise InputError('online_model identifies the whole solenoid from its voltage, current and position: no '
+                             'model_file, position_observer, model, effects or input_topics')
+        return WindowedSolenoid(p.sample_period, window=p.window_time, refit_period=p.refit_period)
     if not p.model_file:
         raise InputError('actuator solenoid needs model_file: a solenoid\'s (emla identify --actuator solenoid '
                          '--model-out), whose inductance curve the resistance is followed with')
