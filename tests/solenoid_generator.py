@@ -15,6 +15,9 @@ quantised by the ADC's step; the position quantised; the voltage held over [t_k,
 interval at its value at the interval's middle (the voltage levels still ask for currents at the cold R).
 A friction of the armature (`params` friction_force Fc, friction_speed v_s): Fc tanh(v / v_s) against the motion,
 smooth through v = 0 (not the suite's sign, and no sticking: the stops hold the armature).
+Iron saturation (`params` iron_current I_1, iron_flux psi_1): the iron in series with the circuit takes
+I_1 (sinh(psi / psi_1) - psi / psi_1) more current (not the suite's cubic: every odd power past the third), so
+I = psi / L(x) + that; the force stays psi^2 L'(x) / (2 L(x)^2) (the iron's energy does not depend on x).
 
     rec, truth = record(rate=1000.0, seed=3)     # truth: {name: value} of the parameters
 """
@@ -41,17 +44,28 @@ def _model(p):
     def inductance(x):
         return l0 + a / (g0 - x)
 
+    def current(psi, x):
+        return psi / inductance(x) + iron(psi, p)
+
     def net_force(psi, x, v):
         i = psi / inductance(x)
         return 0.5 * i * i * a / (g0 - x) ** 2 - b * v - k * x - f0 - fc * np.tanh(v / vs)
 
     def free(t, y, u):
         psi, x, v = y
-        return [u - r * psi / inductance(x), v, net_force(psi, x, v) / m]
+        return [u - r * current(psi, x), v, net_force(psi, x, v) / m]
 
     def held(t, y, u, x):
-        return [u - r * y[0] / inductance(x)]
+        return [u - r * current(y[0], x)]
     return free, held, net_force
+
+
+def iron(psi, p):
+    """The iron's share of the current (A) at flux linkage psi."""
+    if not p.get('iron_current'):
+        return 0.0 * psi
+    z = psi / p['iron_flux']
+    return p['iron_current'] * (np.sinh(z) - z)
 
 
 def _interval(state, u, ts, p):
@@ -114,7 +128,7 @@ def record(duration=2.0, rate=1000.0, seed=0, params=None, current_noise=5e-3, c
         psi[k], x[k] = state[0], state[1]
         rise = 1.0 + resistance_rise * (k + 0.5) / n
         state = _interval(state, u[k], ts, dict(p, resistance=p['resistance'] * rise) if resistance_rise else p)
-    current = psi / (p['leakage_inductance'] + p['gap_coefficient'] / (p['gap'] - x))
+    current = psi / (p['leakage_inductance'] + p['gap_coefficient'] / (p['gap'] - x)) + iron(psi, p)
     current = current + current_noise * rng.standard_normal(n)
     if current_step:
         current = np.round(current / current_step) * current_step

@@ -46,8 +46,10 @@ from scipy.optimize import least_squares, minimize_scalar
 from emla_core.data import as_recording
 from emla_core.errors import InputError
 from emla_core.physics.solenoid import (
+    KERNEL_SLOTS,
     SOLENOID_PARAMETER_NAMES,
     SolenoidParameters,
+    flux,
     inductance,
     inductance_slope,
     solenoid_step,
@@ -71,6 +73,7 @@ STOP_SHARE = 0.01     # of the stroke: the least clearance from a stop of a forc
 RELIABLE = 0.1        # of the current's noise: the largest error a sample's predicted current may take from the path
 HINT_SAMPLES = 50000  # samples a moving coil's misfit record is tried as a solenoid on
 PASSES = 3            # electrical and mechanical fits in turn (the first on a spline path between the samples)
+_SATURATION = KERNEL_SLOTS.index('saturation_coefficient')
 FRICTION_SPEEDS = np.concatenate(([0.0], np.geomspace(1e-3, 0.3, 12)))   # v_s tried, times the path's peak speed
 
 
@@ -115,7 +118,8 @@ class SolenoidResult:
         return SolenoidParameters(**{name: self.parameters[name] for name in SOLENOID_PARAMETER_NAMES},
                                   stroke_min=self.stroke[0], stroke_max=self.stroke[1],
                                   friction_force=max(self.parameters.get('coulomb_force', 0.0), 0.0),
-                                  friction_speed=self.settings.get('friction_speed', 0.0))
+                                  friction_speed=self.settings.get('friction_speed', 0.0),
+                                  saturation_coefficient=max(self.parameters.get('saturation_coefficient', 0.0), 0.0))
 
     def model_file(self, data: str, command: str):
         """The identified solenoid as a model file's Model (emla_core.model_file; `actuator: solenoid`): the
@@ -128,7 +132,8 @@ class SolenoidResult:
 
 def identify_solenoid(data: Recording | Path | str | None = None, *, sample_period: float | None = None,
                       voltage: ArrayLike | None = None, current: ArrayLike | None = None,
-                      position: ArrayLike | None = None, friction: bool = False) -> SolenoidResult:
+                      position: ArrayLike | None = None, friction: bool = False,
+                      saturation: bool = False) -> SolenoidResult:
     """Identify a solenoid's R, L0, a, g0, m, B, k, F0 from a whole record of its voltage, current and position.
 
     Parameters
@@ -145,6 +150,10 @@ def identify_solenoid(data: Recording | Path | str | None = None, *, sample_peri
         and `friction_speed` v_s in m/s among the settings: 0 is the dry Fc sign(v)), v along the armature's path
         between the samples and triangle-weighted like the other forces, v_s the best of FRICTION_SPEEDS times the
         path's peak speed (the solenoid discrepancy's candidate, solenoid_discrepancy.py).
+    saturation : bool, optional
+        Add the iron's saturation to the flux linkage, I = psi / L(x) + c psi^3 (`saturation_coefficient` c in
+        A/Wb^3, >= 0, after g0; the force then M^2 L'(x) / 2 with M = psi / L(x)): the solenoid discrepancy's
+        electrical candidate.
 
     Returns
     -------
@@ -179,7 +188,7 @@ def identify_solenoid(data: Recording | Path | str | None = None, *, sample_peri
     if not np.ptp(x) > 0:
         raise InputError(f'{source}: the position never changes: the solenoid\'s inductance curve and mechanics '
                          f'need the armature to move')
-    return _identify(u, i, x, ts, source, friction)
+    return _identify(u, i, x, ts, source, friction, saturation)
 
 
 def solenoid_hint(recording: Recording) -> str | None:
@@ -201,10 +210,12 @@ def solenoid_hint(recording: Recording) -> str | None:
             f'({1e3 * p["gap"]:.3g} mm - x), force I^2 L\'(x)/2): identify it with --actuator solenoid')
 
 
-def _identify(u, i, x, ts, source, friction=False):
+def _identify(u, i, x, ts, source, friction=False, saturation=False):
     substeps = 2 * max(1, math.ceil(ts / SUBSTEP / 2))
     stopped = on_stop(x)
     electrical = _start(u, i, x, ts)
+    if saturation:   # c from zero (scaled in _electrical)
+        electrical = np.append(electrical, 0.0)
     mechanical, speed = None, None   # the first pass: the armature's path a spline through the samples
     for _ in range(PASSES):
         nodes, error = _nodes(u, i, x, stopped, electrical, mechanical, speed, ts, substeps)
@@ -222,19 +233,21 @@ def _identify(u, i, x, ts, source, friction=False):
         mechanical, m_cov, m_residual, phi, stencil, speed = _mechanics(u, i, x, nodes, electrical, ts, substeps,
                                                                         rows, speeds)
     e_cov = _sandwich(jacobian, e_residual, ELECTRICAL_LAGS)
-    gain = np.empty((len(mechanical), 4))   # d(mechanical)/d(electrical)
-    for j in range(4):
-        step = 1e-6 * electrical[j]
+    count = len(electrical)
+    gain = np.empty((len(mechanical), count))   # d(mechanical)/d(electrical)
+    for j in range(count):
+        step = 1e-6 * (electrical[j] or np.sqrt(e_cov[j, j]))
         shifted = electrical.copy()
         shifted[j] += step
         gain[:, j] = (_mechanics(u, i, x, nodes, shifted, ts, substeps, rows, () if speed is None else (speed,))[0]
                       - mechanical) / step
-    names = SOLENOID_PARAMETER_NAMES + (('coulomb_force',) if friction else ())
+    names = ELECTRICAL + (('saturation_coefficient',) if saturation else ()) + MECHANICAL + \
+        (('coulomb_force',) if friction else ())
     covariance = np.zeros((len(names), len(names)))
-    covariance[:4, :4] = e_cov
-    covariance[4:, 4:] = m_cov + gain @ e_cov @ gain.T
-    covariance[4:, :4] = gain @ e_cov
-    covariance[:4, 4:] = covariance[4:, :4].T
+    covariance[:count, :count] = e_cov
+    covariance[count:, count:] = m_cov + gain @ e_cov @ gain.T
+    covariance[count:, :count] = gain @ e_cov
+    covariance[:count, count:] = covariance[count:, :count].T
     values = np.concatenate((electrical, mechanical))
     if not np.all(np.isfinite(values)) or not np.all(np.diag(covariance) >= 0):
         raise InputError(f'{source}: the solenoid model gives no finite estimate from these data')
@@ -248,15 +261,20 @@ def _identify(u, i, x, ts, source, friction=False):
 
 
 def _electrical(u, i, nodes, start, ts, substeps, keep, x, source):
-    """(R, L0, a, g0), the Jacobian of the current's residual by them and that residual (at the samples `keep`):
-    the output-error fit from `start`, the armature moved along `nodes`."""
+    """(R, L0, a, g0[, c]), the Jacobian of the current's residual by them and that residual (at the samples `keep`):
+    the output-error fit from `start`, the armature moved along `nodes`. c (the saturation, if `start` has it) is
+    scaled by the largest current over the cube of the largest flux linkage without it: c psi^3 a share of I."""
     scale = np.abs(start)
-    low = np.array([1e-6, 0.0, 1e-6, (x.max() - x.min()) * 1e-3 + x.max()]) / scale
+    low = np.array([1e-6, 0.0, 1e-6, (x.max() - x.min()) * 1e-3 + x.max(), 0.0][:len(start)])
+    if len(start) > 4:
+        peak = np.max(np.abs(i))
+        scale[4] = max(scale[4], peak / np.max(np.abs(inductance(x, *start[1:4]) * i)) ** 3)
+    low /= scale
 
     def residual(q):
         return (i - _simulated(u, i, nodes, q * scale, ts, substeps)[0])[keep]
     try:
-        solution = least_squares(residual, np.maximum(np.ones(4), low), bounds=(low, np.inf), x_scale='jac',
+        solution = least_squares(residual, np.maximum(start / scale, low), bounds=(low, np.inf), x_scale='jac',
                                  xtol=1e-12, ftol=1e-12)
     except (ValueError, np.linalg.LinAlgError) as exc:
         raise InputError(f'{source}: the solenoid model cannot be fitted to these data ({exc})') from None
@@ -265,7 +283,7 @@ def _electrical(u, i, nodes, start, ts, substeps, keep, x, source):
 
 def _settling(electrical, x, ts, n):
     """Samples at the start that remember the initial flux linkage: SETTLE coil time constants (at most n / 4)."""
-    r, l0, a, g0 = electrical
+    r, l0, a, g0 = electrical[:4]
     return min(n // 4, int(SETTLE * (l0 + a / (g0 - x.min())) / r / ts))
 
 
@@ -287,7 +305,7 @@ def _reliable(i, x, stopped, error, electrical, ts):
     the current error it would cause, R I L'(x) dx Ts / L(x)^2, carried forward with the coil's decay
     exp(-R Ts / L(x)), below RELIABLE of the current's noise (from its second difference on the stops, at least
     1e-6 of the current's RMS)."""
-    r, l0, a, g0 = electrical
+    r, l0, a, g0 = electrical[:4]
     inductances = inductance(x[:-1], l0, a, g0)
     kick = r * np.abs(i[:-1]) * inductance_slope(x[:-1], a, g0) * error * ts / inductances ** 2
     carried = _carried(kick, np.exp(-r * ts / inductances))
@@ -335,23 +353,29 @@ def _spline_nodes(x, stopped, substeps):
 
 
 @numba.njit(cache=True)
-def _driven(u, i0, nodes, r, l0, a, g0, ts, substeps):
-    """The current at the sub-step boundaries of each interval, (n - 1, substeps + 1), the armature moved along
-    `nodes` (positions at the half sub-steps): RK4 of dpsi/dt = u - R psi / L(x(t)), psi = L(x) I."""
+def _coil_current(psi, x, l0, a, g0, c):
+    """I = psi / L(x) + c psi^3."""
+    return psi / inductance(x, l0, a, g0) + c * psi * psi * psi
+
+
+@numba.njit(cache=True)
+def _driven(u, i0, nodes, r, l0, a, g0, c, ts, substeps):
+    """The flux linkage at the sub-step boundaries of each interval, (n - 1, substeps + 1), the armature moved
+    along `nodes` (positions at the half sub-steps): RK4 of dpsi/dt = u - R I(psi, x(t)), I = psi / L(x) + c psi^3."""
     n = nodes.shape[0]
     out = np.empty((n, substeps + 1))
     h = ts / substeps
-    psi = inductance(nodes[0, 0], l0, a, g0) * i0
+    psi = flux(i0, inductance(nodes[0, 0], l0, a, g0), c)
     for k in range(n):
-        out[k, 0] = psi / inductance(nodes[k, 0], l0, a, g0)
+        out[k, 0] = psi
         for s in range(substeps):
             x0, xm, x1 = nodes[k, 2 * s], nodes[k, 2 * s + 1], nodes[k, 2 * s + 2]
-            k1 = u[k] - r * psi / inductance(x0, l0, a, g0)
-            k2 = u[k] - r * (psi + 0.5 * h * k1) / inductance(xm, l0, a, g0)
-            k3 = u[k] - r * (psi + 0.5 * h * k2) / inductance(xm, l0, a, g0)
-            k4 = u[k] - r * (psi + h * k3) / inductance(x1, l0, a, g0)
+            k1 = u[k] - r * _coil_current(psi, x0, l0, a, g0, c)
+            k2 = u[k] - r * _coil_current(psi + 0.5 * h * k1, xm, l0, a, g0, c)
+            k3 = u[k] - r * _coil_current(psi + 0.5 * h * k2, xm, l0, a, g0, c)
+            k4 = u[k] - r * _coil_current(psi + h * k3, x1, l0, a, g0, c)
             psi += h / 6.0 * (k1 + 2.0 * (k2 + k3) + k4)
-            out[k, s + 1] = psi / inductance(x1, l0, a, g0)
+            out[k, s + 1] = psi
     return out
 
 
@@ -404,8 +428,9 @@ def _paths(u, i0, x, stopped, p, ts, substeps):
         error[k] = max(error[k], jump) + abs(x_end - x[k + 1])
         if k > 0:
             error[k - 1] = max(error[k - 1], jump)
-        if k + 1 < n - 1:   # the flux linkage L(x) I carries over to the measured position
-            i *= inductance(x_end, p[1], p[2], p[3]) / inductance(x[k + 1], p[1], p[2], p[3])
+        if k + 1 < n - 1:   # the flux linkage carries over to the measured position
+            psi = flux(i, inductance(x_end, p[1], p[2], p[3]), p[_SATURATION])
+            i = _coil_current(psi, x[k + 1], p[1], p[2], p[3], p[_SATURATION])
     return current, position, error
 
 
@@ -416,16 +441,21 @@ def _nodes(u, i, x, stopped, electrical, mechanical, speed, ts, substeps):
     if mechanical is None:
         return _spline_nodes(x, stopped, substeps), _spline_error(x, stopped)
     friction = max(mechanical[4:5].sum(), 0.0)
-    kernel = np.concatenate((electrical, mechanical[:4], (x.min(), x.max(), friction, speed or 0.0)))   # KERNEL_SLOTS
+    kernel = np.concatenate((electrical[:4], mechanical[:4], (x.min(), x.max(), friction, speed or 0.0,
+                                                              max(electrical[4:5].sum(), 0.0))))   # KERNEL_SLOTS
     _, nodes, error = _paths(u, float(i[0]), x, stopped, kernel, ts, 2 * substeps)
     return nodes, error
 
 
 def _simulated(u, i, nodes, electrical, ts, substeps):
-    """(current predicted at the samples, current at the sub-step boundaries) of the electrical parameters, the
-    armature moved along `nodes`."""
-    current = _driven(u, float(i[0]), nodes, *electrical, ts, substeps)
-    return np.append(current[:, 0], current[-1, -1]), current
+    """(current predicted at the samples, magnetizing current psi / L(x) at the sub-step boundaries) of the
+    electrical parameters (R, L0, a, g0[, c]), the armature moved along `nodes`."""
+    r, l0, a, g0 = electrical[:4]
+    c = electrical[4] if len(electrical) > 4 else 0.0
+    psi = _driven(u, float(i[0]), nodes, r, l0, a, g0, c, ts, substeps)
+    magnetizing = psi / inductance(nodes[:, ::2], l0, a, g0)
+    current = magnetizing + c * psi ** 3
+    return np.append(current[:, 0], current[-1, -1]), magnetizing
 
 
 def _start(u, i, x, ts):
@@ -484,9 +514,9 @@ def _mechanics(u, i, x, nodes, electrical, ts, substeps, rows, speeds=()):
     residual. The covariance is that of white position noise through the stencils (the residuals' own lagged
     products would cancel to nearly nothing: the second difference holds no noise at low frequency but at the ends
     of each run of rows)."""
-    current = _simulated(u, i, nodes, electrical, ts, substeps)[1]
+    magnetizing = _simulated(u, i, nodes, electrical, ts, substeps)[1]
     position = nodes[:, ::2]
-    force = _triangle_means(0.5 * current ** 2 * inductance_slope(position, *electrical[2:]), rows)[0]
+    force = _triangle_means(0.5 * magnetizing ** 2 * inductance_slope(position, *electrical[2:4]), rows)[0]
     acceleration = (x[rows + 1] - 2.0 * x[rows] + x[rows - 1]) / ts ** 2
     mean_position, rise = _triangle_means(nodes, rows)
     velocity = rise / ts

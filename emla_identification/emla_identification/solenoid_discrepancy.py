@@ -1,17 +1,21 @@
 """What a solenoid's model lacks (`emla discrepancy --actuator solenoid`, docs/physics.md §9.5): is the solenoid
-model (emla_identification.solenoid) adequate, and if not, does a friction of the armature explain what is left?
+model (emla_identification.solenoid) adequate, and if not, which of its candidate effects explains what is left?
 
 The nominal model is identified and each equation's fit judged against its sensor-noise floor (the fit block of
-the identification: low-band residual power over the noise's, adequate up to noise_floor.MAX_RATIO). The candidate
-is a friction Fc tanh(v / v_s) of the armature (identify_solenoid's `friction`: v along the armature's path between
-the samples, v_s searched, 0 for a dry Fc sign(v)), tried on every record: a weak friction hides in the damping and
-the preload (0.05 N left the force balance within its floor, B and F0 7 and 8 sigmas off). It is named when it is
-significant, Fc at least MIN_T of its sigmas above zero (a friction opposes the motion), and either the nominal
-force balance fitted or the friction removes at least MIN_SHARE of its excess over its noise floor; the verdict is
-then `explained` if both equations fit with it, else `unexplained` with the friction named. A misfit of the
-electrical equation has no candidate yet (iron saturation, eddy currents and residual magnetism are not in the
-family's library): it is reported `unexplained`, located on the signals its residual depends on. The gap is the
-NRMSE of each signal's free run under the measured voltage (solenoid_predict.py), before and after.
+the identification: low-band residual power over the noise's, adequate up to noise_floor.MAX_RATIO). Each
+candidate (CANDIDATES) is identify_solenoid with one effect added, tried on every record:
+- friction of the armature, Fc tanh(v / v_s) (its `friction`: v along the armature's path between the samples,
+  v_s searched, 0 for a dry Fc sign(v)), judged on the force balance: a weak friction hides in the damping and the
+  preload (0.05 N left the force balance within its floor, B and F0 7 and 8 sigmas off);
+- iron saturation, I = psi / L(x) + c psi^3 (its `saturation`), judged on the electrical equation: a weak one
+  hides in the inductance curve and biases the mechanics through the force.
+A candidate is named when it is significant, its strength at least MIN_T of its sigmas above zero (a friction
+opposes the motion, the iron's saturation raises the current), and either the nominal model fitted its equation
+or it removes at least MIN_SHARE of that equation's excess over its noise floor. The named effects are then fitted
+together; the verdict is `explained` if both equations fit with them, else `unexplained` with them named (and
+with none named, located on the signals the residual depends on). The gap is the NRMSE of each signal's free run
+under the measured voltage (solenoid_predict.py), before and after. Not in the library: eddy currents, residual
+magnetism.
 """
 from dataclasses import dataclass
 
@@ -22,65 +26,81 @@ from emla_core.data import as_recording
 from .solenoid import SolenoidResult, identify_solenoid
 from .solenoid_predict import predict_solenoid
 
-MIN_T = 3.0        # sigmas of Fc from zero for the friction to be significant
-MIN_SHARE = 0.5    # of the force balance's excess power over its noise floor the friction must remove
+MIN_T = 3.0        # sigmas of a candidate's strength from zero for it to be significant
+MIN_SHARE = 0.5    # of its equation's excess power over its noise floor a candidate must remove
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """An effect the solenoid's discrepancy tries: identify_solenoid's `option`, the `parameter` that is its
+    strength (in `unit`), the `equation` it is judged on."""
+
+    name: str
+    option: str
+    parameter: str
+    unit: str
+    equation: str
+
+
+CANDIDATES = (Candidate('friction', 'friction', 'coulomb_force', 'N', 'mechanical'),
+              Candidate('iron_saturation', 'saturation', 'saturation_coefficient', 'A/Wb^3', 'electrical'))
 
 
 @dataclass
 class SolenoidDiagnosis:
-    """The solenoid model on a record (`nominal`), the friction fitted with it (`friction`), and the verdict."""
+    """The solenoid model on a record (`nominal`), each candidate fitted with it (`tried`: {name: SolenoidResult}),
+    the model with the named ones (`final`) and the gaps."""
 
     nominal: SolenoidResult
-    friction: SolenoidResult | None
-    gaps: dict             # 'before' / 'after': {signal: NRMSE of the free run}
+    tried: dict
+    final: SolenoidResult | None = None
+    gaps: dict = None      # 'before' / 'after': {signal: NRMSE of the free run}
 
-    @property
-    def share(self) -> float:
-        """The share of the force balance's excess power over its floor that the friction removes, in [-1, 1]."""
-        if self.friction is None:
-            return 0.0
-        before, after = (max(r.fit['mechanical'].ratio - 1.0, 0.0) for r in (self.nominal, self.friction))
+    def share(self, candidate: Candidate) -> float:
+        """The share of its equation's excess power over the floor that the candidate removes, in [-1, 1]."""
+        before, after = (max(r.fit[candidate.equation].ratio - 1.0, 0.0)
+                         for r in (self.nominal, self.tried[candidate.name]))
         largest = max(before, after)
         return float((before - after) / largest) if largest > 0 else 0.0
 
-    @property
-    def significant(self) -> bool:
-        if self.friction is None:
-            return False
-        value, std = self.friction.parameters['coulomb_force'], self.friction.std['coulomb_force']
+    def significant(self, candidate: Candidate) -> bool:
+        result = self.tried[candidate.name]
+        value, std = result.parameters[candidate.parameter], result.std[candidate.parameter]
         return bool(value > 0 and value >= MIN_T * std)
 
-    @property
-    def named(self) -> bool:
-        return self.significant and (self.nominal.fit['mechanical'].adequate or self.share >= MIN_SHARE)
+    def named(self, candidate: Candidate) -> bool:
+        return self.significant(candidate) and (self.nominal.fit[candidate.equation].adequate
+                                                or self.share(candidate) >= MIN_SHARE)
 
     @property
-    def final(self) -> SolenoidResult:
-        return self.friction if self.named else self.nominal
+    def names(self) -> list:
+        """The named candidates."""
+        return [c for c in CANDIDATES if self.named(c)]
 
     @property
     def verdict(self) -> str:
-        if not self.named and all(f.adequate for f in self.nominal.fit.values()):
+        if not self.names and all(f.adequate for f in self.nominal.fit.values()):
             return 'adequate'
-        return 'explained' if self.named and all(f.adequate for f in self.final.fit.values()) else 'unexplained'
+        return 'explained' if self.names and all(f.adequate for f in self.final.fit.values()) else 'unexplained'
 
     def to_dict(self) -> dict:
         """The `emla discrepancy --actuator solenoid` JSON (the moving coil's keys where they apply)."""
         verdict = self.verdict
         effects, candidates = [], []
-        if self.friction is not None:
-            f = self.friction
-            parameters = {'coulomb_force': f.parameters['coulomb_force']}
-            evidence = (f'coulomb_force = {f.parameters["coulomb_force"]:.4g} +- {f.std["coulomb_force"]:.2g} N '
-                        f'(friction_speed {f.settings["friction_speed"]:.3g} m/s); the force balance from '
-                        f'{self.nominal.fit["mechanical"].ratio:.3g} to {f.fit["mechanical"].ratio:.3g} times its '
-                        f'noise floor (power), {100 * self.share:.0f} % of its excess removed')
-            candidates.append({'effect': 'friction', 'score': round(self.share, 6),
-                               'significant': self.significant, 'evidence': evidence})
-            if self.named:
-                effects.append({'effect': 'friction', 'parameters': parameters,
-                                'std': {'coulomb_force': f.std['coulomb_force']},
-                                'settings': dict(f.settings), 'share': round(self.share, 4),
+        for c in CANDIDATES:
+            tried, share = self.tried[c.name], self.share(c)
+            setting = (f' (friction_speed {tried.settings["friction_speed"]:.3g} m/s)'
+                       if 'friction_speed' in tried.settings else '')
+            evidence = (f'{c.parameter} = {tried.parameters[c.parameter]:.4g} +- {tried.std[c.parameter]:.2g} '
+                        f'{c.unit}{setting}; the {c.equation} equation from {self.nominal.fit[c.equation].ratio:.3g} '
+                        f'to {tried.fit[c.equation].ratio:.3g} times its noise floor (power), {100 * share:.0f} % of '
+                        f'its excess removed')
+            candidates.append({'effect': c.name, 'score': round(share, 6), 'significant': self.significant(c),
+                               'evidence': evidence})
+            if self.named(c):
+                effects.append({'effect': c.name, 'parameters': {c.parameter: self.final.parameters[c.parameter]},
+                                'std': {c.parameter: self.final.std[c.parameter]},
+                                'settings': dict(tried.settings), 'share': round(share, 4),
                                 'gap_after': dict(self.gaps['after'])})
         return {'actuator': 'solenoid', 'verdict': verdict,
                 'missing_effect': effects[0]['effect'] if effects else ('none' if verdict == 'adequate'
@@ -122,14 +142,17 @@ def diagnose_solenoid(data) -> SolenoidDiagnosis:
     """
     recording = as_recording(data)
     nominal = identify_solenoid(recording)
-    friction = identify_solenoid(recording, friction=True)
-    diagnosis = SolenoidDiagnosis(nominal, friction, {})
-    diagnosis.gaps['before'] = _gaps(nominal, recording)
-    diagnosis.gaps['after'] = _gaps(diagnosis.final, recording) if diagnosis.named else dict(diagnosis.gaps['before'])
+    diagnosis = SolenoidDiagnosis(nominal, {c.name: identify_solenoid(recording, **{c.option: True})
+                                            for c in CANDIDATES})
+    named = diagnosis.names
+    diagnosis.final = (nominal if not named else diagnosis.tried[named[0].name] if len(named) == 1
+                       else identify_solenoid(recording, **{c.option: True for c in named}))
+    before = _gaps(nominal, recording)
+    diagnosis.gaps = {'before': before, 'after': _gaps(diagnosis.final, recording) if named else dict(before)}
     return diagnosis
 
 
 def _gaps(result, recording):
-    """{signal: NRMSE} of the result's free run under the record's voltage (a friction with its v_s)."""
+    """{signal: NRMSE} of the result's free run under the record's voltage (with its effects)."""
     return {name: round(p.nrmse, 6) if np.isfinite(p.nrmse) else None
             for name, p in predict_solenoid(result.solenoid(), recording).items()}

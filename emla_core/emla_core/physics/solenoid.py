@@ -5,10 +5,16 @@ The coil's flux linkage is psi(x, I) = L(x) I with a leakage path in parallel wi
 reluctance grows with the gap g0 - x (x > 0 closes the gap):
 
     L(x)  = L0 + a / (g0 - x),          L'(x) = a / (g0 - x)^2
-    l     = d psi/dI = L(x)             (incremental inductance; no saturation yet)
+    l     = d psi/dI = L(x)             (incremental inductance)
     e     = d psi/dx = I L'(x)          (back-EMF coefficient)
     F     = d W'/dx  = I^2 L'(x) / 2    (co-energy force, always towards +x: it closes the gap)
     load  = F0 + k x                    (return spring with preload F0, pushing the armature open)
+
+Iron saturation (`saturation_coefficient` c > 0): the iron in series with the circuit takes a magnetomotive force
+that grows faster than the flux, the first odd term of its curve, so the current is I = psi / L(x) + c psi^3.
+With M = psi / L(x) (the current the circuit alone would take), the energy W = psi^2 / (2 L(x)) + c psi^4 / 4
+gives F = -dW/dx at constant psi = M^2 L'(x) / 2, and l = 1 / (1 / L(x) + 3 c psi^2), e = M L'(x) l / L(x);
+psi from I by Newton's method (`flux`).
 
 These are handed to equations.coil_rates, the suite's one right-hand side. The armature moves between end stops
 x_min and x_max; a stop is inelastic: the armature that reaches it stays there, at rest, while the net force
@@ -65,6 +71,8 @@ class SolenoidParameters:
     friction_speed : float
         v_s (m/s, >= 0) of that friction: Fc tanh(v / v_s), smooth through v = 0; 0: the dry Fc sign(v), sticking
         below breakaway (equations.friction_force).
+    saturation_coefficient : float
+        c (A / Wb^3, >= 0) of the iron's saturation: I = psi / L(x) + c psi^3; 0: none.
 
     Examples
     --------
@@ -86,6 +94,7 @@ class SolenoidParameters:
     supply_voltage: float = 24.0
     friction_force: float = 0.0
     friction_speed: float = 0.0
+    saturation_coefficient: float = 0.0
 
     def __post_init__(self):
         for field in dataclasses.fields(self):
@@ -96,7 +105,8 @@ class SolenoidParameters:
         for name in ('resistance', 'gap_coefficient', 'gap', 'mass', 'supply_voltage'):
             if getattr(self, name) <= 0.0:
                 raise ValueError(f'SolenoidParameters.{name} must be positive, got {getattr(self, name)!r}')
-        for name in ('leakage_inductance', 'damping', 'spring_stiffness', 'friction_force', 'friction_speed'):
+        for name in ('leakage_inductance', 'damping', 'spring_stiffness', 'friction_force', 'friction_speed',
+                     'saturation_coefficient'):
             if getattr(self, name) < 0.0:
                 raise ValueError(f'SolenoidParameters.{name} must be >= 0, got {getattr(self, name)!r}')
         if not self.stroke_min < self.stroke_max < self.gap:
@@ -120,16 +130,24 @@ class SolenoidParameters:
         return inductance_slope(position, self.gap_coefficient, self.gap)
 
     def flux_linkage(self, position, current):
-        """psi = L(x) I (V s = Wb)."""
-        return self.inductance(position) * current
+        """psi (V s = Wb): L(x) I, or with saturation the root of psi / L(x) + c psi^3 = I."""
+        return _flux(np.asarray(current, dtype=float), self.inductance(position), self.saturation_coefficient)
+
+    def magnetizing_current(self, position, current):
+        """M = psi / L(x) (A): the current itself without saturation."""
+        return self.flux_linkage(position, current) / self.inductance(position)
 
     def emf_coefficient(self, position, current):
-        """d psi/dx = I L'(x) (V s/m): the back-EMF is this times the velocity."""
-        return current * self.inductance_slope(position)
+        """d psi/dx = M L'(x) l / L(x) (V s/m; I L'(x) without saturation): the back-EMF is this times the
+        velocity."""
+        inductance_x, psi = self.inductance(position), self.flux_linkage(position, current)
+        incremental = 1.0 / (1.0 / inductance_x + 3.0 * self.saturation_coefficient * psi * psi)
+        return psi / inductance_x * self.inductance_slope(position) * incremental / inductance_x
 
     def coil_force(self, position, current):
-        """The co-energy force I^2 L'(x) / 2 (N, towards +x)."""
-        return 0.5 * current * current * self.inductance_slope(position)
+        """The co-energy force M^2 L'(x) / 2 (N, towards +x)."""
+        magnetizing = self.magnetizing_current(position, current)
+        return 0.5 * magnetizing * magnetizing * self.inductance_slope(position)
 
     def load(self, position):
         """The spring's force F0 + k x (N, opposing +x)."""
@@ -141,8 +159,37 @@ class SolenoidParameters:
 
 
 KERNEL_SLOTS = ('resistance', 'leakage_inductance', 'gap_coefficient', 'gap', 'mass', 'damping', 'spring_stiffness',
-                'spring_preload', 'stroke_min', 'stroke_max', 'friction_force', 'friction_speed')
-_R, _L0, _A, _G0, _M, _B, _K, _F0, _XMIN, _XMAX, _FC, _VS = range(len(KERNEL_SLOTS))
+                'spring_preload', 'stroke_min', 'stroke_max', 'friction_force', 'friction_speed',
+                'saturation_coefficient')
+_R, _L0, _A, _G0, _M, _B, _K, _F0, _XMIN, _XMAX, _FC, _VS, _C = range(len(KERNEL_SLOTS))
+NEWTON_STEPS = 8   # of `flux`: from psi = L I, each at least doubles the correct digits once near the root
+
+
+@numba.njit(cache=True)
+def flux(current, inductance, saturation):
+    """psi with psi / L + c psi^3 = I (V s), by Newton's method from L I (for c > 0 the function is increasing and
+    convex on the side of the start, so the steps close in from there without overshooting)."""
+    psi = inductance * current
+    if saturation > 0.0:
+        for _ in range(NEWTON_STEPS):
+            residual = psi / inductance + saturation * psi ** 3 - current
+            psi -= residual / (1.0 / inductance + 3.0 * saturation * psi ** 2)
+    return psi
+
+
+_flux = numba.vectorize(['float64(float64, float64, float64)'], cache=True)(flux.py_func)
+
+
+@numba.njit(cache=True)
+def coil_terms(i, x, p):
+    """(l, e, F) of the coil at current i and position x, parameters p (KERNEL_SLOTS): its incremental inductance,
+    back-EMF coefficient and co-energy force, with the iron's saturation."""
+    inductance_x = inductance(x, p[_L0], p[_A], p[_G0])
+    slope = inductance_slope(x, p[_A], p[_G0])
+    psi = flux(i, inductance_x, p[_C])
+    magnetizing = psi / inductance_x
+    incremental = 1.0 / (1.0 / inductance_x + 3.0 * p[_C] * psi * psi)
+    return incremental, magnetizing * slope * incremental / inductance_x, 0.5 * magnetizing * magnetizing * slope
 
 
 @numba.njit(cache=True)
@@ -161,12 +208,11 @@ def inductance_slope(x, coefficient, gap):
 def _rates(i, x, v, u, p, h):
     """(dI/dt, dx/dt, dv/dt): the coil's l, e, F and the spring's load through coil_rates; at an end stop at rest
     the armature stays while the net force presses it on."""
-    slope = inductance_slope(x, p[_A], p[_G0])
     load, dry = p[_F0] + p[_K] * x, p[_FC]
     if p[_VS] > 0.0:   # the smooth friction: a load like the spring's, nothing to stick
         load, dry = load + p[_FC] * np.tanh(v / p[_VS]), 0.0
-    di, dv = coil_rates(i, v, u, p[_R], inductance(x, p[_L0], p[_A], p[_G0]), i * slope, 0.5 * i * i * slope,
-                        p[_M], p[_B], load, dry, h)
+    incremental, emf, force = coil_terms(i, x, p)
+    di, dv = coil_rates(i, v, u, p[_R], incremental, emf, force, p[_M], p[_B], load, dry, h)
     if v == 0.0 and ((x >= p[_XMAX] and dv > 0.0) or (x <= p[_XMIN] and dv < 0.0)):
         return di, 0.0, 0.0
     return di, v, dv
@@ -212,5 +258,5 @@ def solenoid_sequence(state, voltages, dt, substeps, p):
         for _ in range(substeps):
             i, x, v = solenoid_step(i, x, v, voltages[k], p, h)
         out[k, 0], out[k, 1], out[k, 2] = i, x, v
-        out[k, 3] = 0.5 * i * i * inductance_slope(x, p[_A], p[_G0])
+        out[k, 3] = coil_terms(i, x, p)[2]
     return out
