@@ -10,6 +10,7 @@ import pytest
 import solenoid_generator as generator
 
 from emla_cli.cli import main
+from emla_core.model_file import read, write
 from emla_core.recording import write_csv
 from emla_identification.solenoid_discrepancy import diagnose_solenoid
 
@@ -27,18 +28,22 @@ SATURATION = {'iron_flux': 0.02}   # Wb: psi_1 of the generator's iron (the valv
 
 
 @pytest.mark.parametrize('iron_current, seed', [(0.05, 6), (0.2, 7)])
-def test_a_hidden_iron_saturation_is_named_and_every_parameter_comes_back(iron_current, seed):
+def test_a_hidden_iron_saturation_is_named_and_every_parameter_comes_back(iron_current, seed, tmp_path):
     """The iron takes 1 % (0.05 A) or 6 % (0.2 A) more current at the valve's largest flux: the nominal model
     bends its inductance curve and mechanics to it (k 7 and 17 sigmas off; 0.05 A leaves both equations within
     their floors), the cubic named explains both equations and brings all eight parameters back within 3 sigma."""
     recording, truth = generator.record(duration=2.0, rate=5000.0, seed=seed,
                                         params=dict(SATURATION, iron_current=iron_current))
-    result = diagnose_solenoid(recording).to_dict()
+    diagnosis = diagnose_solenoid(recording)
+    result = diagnosis.to_dict()
     assert result['verdict'] == 'explained' and [e['effect'] for e in result['effects']] == ['iron_saturation']
     for name in generator.TRUTH:
         error = result['reidentified_parameters'][name] - truth[name]
         assert abs(error) < 3.0 * result['reidentified_parameters_std'][name], name
-    assert result['gap_after']['current'] < result['gap_before']['current']
+    assert result['gap_after']['current'] < result['gap_before']['current']   # its free run: the model file's
+    write(diagnosis.final.model_file('valve.csv', 'emla discrepancy'), tmp_path / 'm.yaml')
+    assert read(tmp_path / 'm.yaml').solenoid().saturation_coefficient == \
+        result['effects'][0]['parameters']['saturation_coefficient']
 
 
 def test_a_saturation_and_a_friction_together_are_both_named():
@@ -94,9 +99,17 @@ def test_the_cli_gives_the_json_and_the_moving_coil_points_at_the_solenoid(tmp_p
     recording, _ = generator.record(duration=2.0, rate=5000.0, seed=4, params={'friction_force': 0.1})
     path = tmp_path / 'valve.csv'
     write_csv(recording, path)
-    assert main(['discrepancy', str(path), '--actuator', 'solenoid', '--json', str(tmp_path / 's.json')]) == 0
+    assert main(['discrepancy', str(path), '--actuator', 'solenoid', '--json', str(tmp_path / 's.json'),
+                 '--model-out', str(tmp_path / 'm.yaml')]) == 0
     result = json.loads((tmp_path / 's.json').read_text())
     assert result['actuator'] == 'solenoid' and result['missing_effect'] == 'friction'
+    (effect,) = result['effects']   # what it learned is the model file: the solenoid with its friction
+    learned = read(tmp_path / 'm.yaml')
+    assert [e.effect for e in learned.effects] == ['friction']
+    solenoid = learned.solenoid()
+    assert solenoid.friction_force == effect['parameters']['coulomb_force']
+    assert solenoid.friction_speed == effect['settings']['friction_speed']
+    assert solenoid.mass == result['reidentified_parameters']['mass']
     capsys.readouterr()
     assert main(['discrepancy', str(path), '--actuator', 'solenoid', '--report', str(tmp_path / 'r')]) == 2
     err = capsys.readouterr().err.strip().splitlines()

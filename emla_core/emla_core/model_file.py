@@ -20,7 +20,9 @@ YAML, SI units:
 A solenoid's model (`emla identify --actuator solenoid --model-out`) says so with `actuator: solenoid` (a file
 without the key is a moving coil's); its parameters are those of emla_core.physics.solenoid's SolenoidParameters
 (resistance, leakage_inductance, gap_coefficient, gap, mass, damping, spring_stiffness, spring_preload, and the
-end stops stroke_min, stroke_max), and it has no effects yet.
+end stops stroke_min, stroke_max), and its effects (`emla discrepancy --actuator solenoid --model-out`) those of
+its SOLENOID_EFFECTS: friction (coulomb_force; setting friction_speed) and iron_saturation
+(saturation_coefficient).
 """
 from __future__ import annotations
 
@@ -67,11 +69,16 @@ class Model:
         return {k: v for k, (v, _) in self.parameters.items()}
 
     def solenoid(self) -> SolenoidParameters:
-        """The solenoid a solenoid's model describes (ValueError for another family's)."""
-        from emla_core.physics.solenoid import SolenoidParameters
+        """The solenoid a solenoid's model describes, with its effects (ValueError for another family's)."""
+        from emla_core.physics.solenoid import SOLENOID_EFFECTS, SolenoidParameters
         if self.actuator != 'solenoid':
             raise ValueError(f'a {self.actuator} model, not a solenoid\'s')
-        return SolenoidParameters(**self.values())
+        fields = self.values()
+        for effect in self.effects:
+            names, settings = SOLENOID_EFFECTS[effect.candidate]
+            fields.update({names[name]: value for name, value in effect.values().items()})
+            fields.update({name: effect.settings[name] for name in settings if name in effect.settings})
+        return SolenoidParameters(**fields)
 
     def require(self, actuator: str, source: str = 'model file') -> Model:
         """This model if it is of the family `actuator`; an InputError in one line naming both otherwise."""
@@ -184,6 +191,13 @@ def read(path: Path | str) -> Model:
         low, high = PARAMETER_BOUNDS[name]
         if not low <= value <= high:
             raise InputError(f'{path}: parameters.{name} {value:g} is outside [{low:g}, {high:g}]')
+    provenance = document.get('provenance') or {}
+    return Model(period, parameters, _effects(document, path, _check_effect),
+                 provenance if isinstance(provenance, dict) else {})
+
+
+def _effects(document, path, check):
+    """The effects a document lists, each checked by `check(effect, path, where)` (which returns it)."""
     effects = []
     listed = document.get('effects') or []
     if not isinstance(listed, list):
@@ -199,25 +213,36 @@ def read(path: Path | str) -> Model:
                              _pairs(item.get('parameters'), path, f'{where}.parameters'), settings)
         if any(e.candidate == effect.candidate for e in effects):
             raise InputError(f'{path}: {where}: {effect.candidate} is given twice')
-        effects.append(_check_effect(effect, path, where))
-    provenance = document.get('provenance') or {}
-    return Model(period, parameters, effects, provenance if isinstance(provenance, dict) else {})
+        effects.append(check(effect, path, where))
+    return effects
 
 
 def _solenoid_model(document, path, period, parameters):
-    """A solenoid's Model from its checked document: every parameter given, a possible solenoid, no effects."""
-    from emla_core.physics.solenoid import SolenoidParameters
+    """A solenoid's Model from its checked document: every parameter given, its effects, a possible solenoid."""
     missing = [name for name in _names('solenoid') if name not in parameters]
     if missing:
         raise InputError(f'{path}: a solenoid model needs {", ".join(missing)}')
-    if document.get('effects'):
-        raise InputError(f'{path}: a solenoid model has no effects yet (the physics layer\'s are the moving coil\'s)')
+    provenance = document.get('provenance') or {}
+    model = Model(period, parameters, _effects(document, path, _check_solenoid_effect),
+                  provenance if isinstance(provenance, dict) else {}, actuator='solenoid')
     try:
-        SolenoidParameters(**{k: v for k, (v, _) in parameters.items()})
+        model.solenoid()
     except ValueError as exc:
         raise InputError(f'{path}: {exc}') from None
-    provenance = document.get('provenance') or {}
-    return Model(period, parameters, [], provenance if isinstance(provenance, dict) else {}, actuator='solenoid')
+    return model
+
+
+def _check_solenoid_effect(effect, path, where):
+    """A solenoid's effect (physics.solenoid.SOLENOID_EFFECTS) with its parameters and no other settings."""
+    from emla_core.physics.solenoid import SOLENOID_EFFECTS
+    if effect.candidate not in SOLENOID_EFFECTS:
+        raise InputError(f'{path}: {where}: a solenoid\'s effects are {", ".join(SOLENOID_EFFECTS)}, not '
+                         f'{effect.candidate}')
+    names, settings = SOLENOID_EFFECTS[effect.candidate]
+    if set(effect.parameters) != set(names) or set(effect.settings) - set(settings):
+        raise InputError(f'{path}: {where} ({effect.candidate}) needs the parameters {", ".join(names)} and takes '
+                         f'the settings {", ".join(settings) or "none"}')
+    return effect
 
 
 def _check_effect(effect, path, where):

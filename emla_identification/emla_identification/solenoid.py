@@ -47,6 +47,7 @@ from emla_core.data import as_recording
 from emla_core.errors import InputError
 from emla_core.physics.solenoid import (
     KERNEL_SLOTS,
+    SOLENOID_EFFECTS,
     SOLENOID_PARAMETER_NAMES,
     SolenoidParameters,
     flux,
@@ -114,20 +115,24 @@ class SolenoidResult:
                 'fit': {name: f.to_dict() for name, f in self.fit.items()}, 'unresolved': self.unresolved()}
 
     def solenoid(self) -> SolenoidParameters:
-        """The identified solenoid as SolenoidParameters, its end stops the record's (`stroke`)."""
-        return SolenoidParameters(**{name: self.parameters[name] for name in SOLENOID_PARAMETER_NAMES},
-                                  stroke_min=self.stroke[0], stroke_max=self.stroke[1],
-                                  friction_force=max(self.parameters.get('coulomb_force', 0.0), 0.0),
-                                  friction_speed=self.settings.get('friction_speed', 0.0),
-                                  saturation_coefficient=max(self.parameters.get('saturation_coefficient', 0.0), 0.0))
+        """The identified solenoid as SolenoidParameters (with the effects fitted), its end stops the record's
+        (`stroke`)."""
+        return self.model_file().solenoid()
 
-    def model_file(self, data: str, command: str):
+    def model_file(self, data: str = '', command: str = ''):
         """The identified solenoid as a model file's Model (emla_core.model_file; `actuator: solenoid`): the
-        parameters with their one-sigmas, the end stops the record's."""
-        from emla_core.model_file import Model, provenance
-        parameters = {name: (value, self.std[name]) for name, value in self.parameters.items()}
+        parameters with their one-sigmas, the end stops the record's, and the effects fitted (SOLENOID_EFFECTS:
+        a friction, the iron's saturation) with theirs."""
+        from emla_core.model_file import Model, ModelEffect, provenance
+        parameters = {name: (self.parameters[name], self.std[name]) for name in SOLENOID_PARAMETER_NAMES}
         parameters.update(stroke_min=(self.stroke[0], None), stroke_max=(self.stroke[1], None))
-        return Model(self.sample_period, parameters, [], provenance(data, command), actuator='solenoid')
+        effects = [ModelEffect(effect, effect, {name: (max(self.parameters[name], 0.0), self.std[name])
+                                                for name in names},
+                               {name: self.settings[name] for name in settings if name in self.settings})
+                   for effect, (names, settings) in SOLENOID_EFFECTS.items()
+                   if all(name in self.parameters for name in names)]
+        return Model(self.sample_period, parameters, effects, provenance(data, command) if data else {},
+                     actuator='solenoid')
 
 
 def identify_solenoid(data: Recording | Path | str | None = None, *, sample_period: float | None = None,

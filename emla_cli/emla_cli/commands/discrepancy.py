@@ -92,16 +92,22 @@ def _solenoid(args):
     """`emla discrepancy --actuator solenoid`: emla_identification.solenoid_discrepancy's JSON."""
     from emla_core.bag.report import read_warnings
     from emla_identification.solenoid_discrepancy import diagnose_solenoid
-    given = [flag for flag, value in (('--candidates', args.candidates), ('--report', args.report),
-                                      ('--model-out', args.model_out)) if value is not None]
+    given = [flag for flag, value in (('--candidates', args.candidates), ('--report', args.report))
+             if value is not None]
     if given:
         raise InputError(f'{", ".join(given)} applies to the moving coil, not yet to --actuator solenoid')
-    check_outputs({'--json': args.json}, [args.data], args.force)
+    check_outputs({'--json': args.json, '--model-out': args.model_out}, [args.data], args.force)
     with read_warnings() as lost:
         recording = load_data(args)
-    result = {**diagnose_solenoid(recording).to_dict(), **understood(recording, 'discrepancy')}
+    diagnosis = diagnose_solenoid(recording)
+    result = {**diagnosis.to_dict(), **understood(recording, 'discrepancy')}
     result['warnings'] = lost + warn(result['warnings'] + unknown_figures(result), 'discrepancy')
-    emit_json(result, args.json)
+    files = []
+    if args.model_out:   # the solenoid with the effects named
+        from emla_core.model_file import write
+        model = diagnosis.final.model_file(args.data, 'emla ' + ' '.join(sys.argv[1:]))
+        files.append((args.model_out, lambda temporary: write(model, temporary)))
+    emit_json(result, args.json, files)
     return 0
 
 

@@ -39,6 +39,11 @@ SOLENOID_UNITS = {'resistance': 'ohm', 'leakage_inductance': 'H', 'gap_coefficie
                   'spring_preload': 'N (opens the gap, opposes +x)', 'stroke_min': 'm', 'stroke_max': 'm',
                   'supply_voltage': 'V'}
 
+# The solenoid's effects as the discrepancy names them and a model file lists them: {effect: ({its parameter, as
+# identified: the SolenoidParameters field}, the settings it carries, fields too)}.
+SOLENOID_EFFECTS = {'friction': ({'coulomb_force': 'friction_force'}, ('friction_speed',)),
+                    'iron_saturation': ({'saturation_coefficient': 'saturation_coefficient'}, ())}
+
 
 @dataclasses.dataclass(frozen=True)
 class SolenoidParameters:
