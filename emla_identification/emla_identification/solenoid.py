@@ -365,14 +365,17 @@ def _coil_current(psi, x, l0, a, g0, c):
 
 @numba.njit(cache=True)
 def _driven(u, i0, nodes, r, l0, a, g0, c, ts, substeps):
-    """The flux linkage at the sub-step boundaries of each interval, (n - 1, substeps + 1), the armature moved
-    along `nodes` (positions at the half sub-steps): RK4 of dpsi/dt = u - R I(psi, x(t)), I = psi / L(x) + c psi^3."""
+    """(The current at the samples, (n,); the magnetizing current psi / L(x) at the sub-step boundaries of each
+    interval, (n - 1, substeps + 1)), the armature moved along `nodes` (positions at the half sub-steps): RK4 of
+    dpsi/dt = u - R I(psi, x(t)), I = psi / L(x) + c psi^3."""
     n = nodes.shape[0]
-    out = np.empty((n, substeps + 1))
+    current = np.empty(n + 1)
+    magnetizing = np.empty((n, substeps + 1))
     h = ts / substeps
     psi = flux(i0, inductance(nodes[0, 0], l0, a, g0), c)
     for k in range(n):
-        out[k, 0] = psi
+        magnetizing[k, 0] = psi / inductance(nodes[k, 0], l0, a, g0)
+        current[k] = magnetizing[k, 0] + c * psi * psi * psi
         for s in range(substeps):
             x0, xm, x1 = nodes[k, 2 * s], nodes[k, 2 * s + 1], nodes[k, 2 * s + 2]
             k1 = u[k] - r * _coil_current(psi, x0, l0, a, g0, c)
@@ -380,8 +383,9 @@ def _driven(u, i0, nodes, r, l0, a, g0, c, ts, substeps):
             k3 = u[k] - r * _coil_current(psi + 0.5 * h * k2, xm, l0, a, g0, c)
             k4 = u[k] - r * _coil_current(psi + h * k3, x1, l0, a, g0, c)
             psi += h / 6.0 * (k1 + 2.0 * (k2 + k3) + k4)
-            out[k, s + 1] = psi
-    return out
+            magnetizing[k, s + 1] = psi / inductance(x1, l0, a, g0)
+    current[n] = magnetizing[n - 1, substeps] + c * psi * psi * psi
+    return current, magnetizing
 
 
 @numba.njit(cache=True)
@@ -455,12 +459,8 @@ def _nodes(u, i, x, stopped, electrical, mechanical, speed, ts, substeps):
 def _simulated(u, i, nodes, electrical, ts, substeps):
     """(current predicted at the samples, magnetizing current psi / L(x) at the sub-step boundaries) of the
     electrical parameters (R, L0, a, g0[, c]), the armature moved along `nodes`."""
-    r, l0, a, g0 = electrical[:4]
     c = electrical[4] if len(electrical) > 4 else 0.0
-    psi = _driven(u, float(i[0]), nodes, r, l0, a, g0, c, ts, substeps)
-    magnetizing = psi / inductance(nodes[:, ::2], l0, a, g0)
-    current = magnetizing + c * psi ** 3
-    return np.append(current[:, 0], current[-1, -1]), magnetizing
+    return _driven(u, float(i[0]), nodes, *electrical[:4], c, ts, substeps)
 
 
 def _start(u, i, x, ts):
