@@ -18,6 +18,9 @@ smooth through v = 0 (not the suite's sign, and no sticking: the stops hold the 
 Iron saturation (`params` iron_current I_1, iron_flux psi_1): the iron in series with the circuit takes
 I_1 (sinh(psi / psi_1) - psi / psi_1) more current (not the suite's cubic: every odd power past the third), so
 I = psi / L(x) + that; the force stays psi^2 L'(x) / (2 L(x)^2) (the iron's energy does not depend on x).
+Residual magnetism (`params` remanence_current I_r, remanence_flux psi_h): the iron's remanence takes
+I_r tanh(psi / psi_h) off the current (not the suite's constant I_r: it fades below psi_h, so an unmagnetised
+circuit carries no flux), the force again psi^2 L'(x) / (2 L(x)^2).
 
     rec, truth = record(rate=1000.0, seed=3)     # truth: {name: value} of the parameters
 """
@@ -61,11 +64,14 @@ def _model(p):
 
 
 def iron(psi, p):
-    """The iron's share of the current (A) at flux linkage psi."""
-    if not p.get('iron_current'):
-        return 0.0 * psi
-    z = psi / p['iron_flux']
-    return p['iron_current'] * (np.sinh(z) - z)
+    """The iron's share of the current (A) at flux linkage psi: its saturation less its remanence."""
+    share = 0.0 * psi
+    if p.get('iron_current'):
+        z = psi / p['iron_flux']
+        share = share + p['iron_current'] * (np.sinh(z) - z)
+    if p.get('remanence_current'):
+        share = share - p['remanence_current'] * np.tanh(psi / p['remanence_flux'])
+    return share
 
 
 def _interval(state, u, ts, p):

@@ -102,7 +102,7 @@ def _valve_parameters(scenario, model_path):
     reference = scenario.reference
     return {
         'plant': plant,
-        'sensor': {'seed': scenario.seed},
+        'sensor': {'seed': scenario.seed, 'control_period': scenario.sample_period},
         'identifier': {**solenoid, 'memory_time': scenario.memory_time, 'measured_frames': True},
         'controller': {**solenoid, 'control_period': scenario.sample_period, 'adaptive': adaptive,
                        'min_samples': round(scenario.memory_time / scenario.sample_period), 'measured_frames': True,

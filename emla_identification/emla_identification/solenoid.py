@@ -62,6 +62,8 @@ from .greybox import UNRESOLVED
 from .noise_floor import low_band
 
 ELECTRICAL = SOLENOID_PARAMETER_NAMES[:4]   # resistance, leakage_inductance, gap_coefficient, gap
+# The electrical vector the fit works on: those, then the effects in the flux linkage (zero unless fitted).
+ELECTRICAL_FIELDS = ELECTRICAL + ('saturation_coefficient', 'remanence_current')
 MECHANICAL = SOLENOID_PARAMETER_NAMES[4:]   # mass, damping, spring_stiffness, spring_preload
 SUBSTEP = 2e-5        # s: the longest RK4 sub-step of the flux linkage (an even number of them per sample)
 SETTLE = 10           # coil time constants at the start of the record left out of the current's fit
@@ -74,7 +76,7 @@ STOP_SHARE = 0.01     # of the stroke: the least clearance from a stop of a forc
 RELIABLE = 0.1        # of the current's noise: the largest error a sample's predicted current may take from the path
 HINT_SAMPLES = 50000  # samples a moving coil's misfit record is tried as a solenoid on
 PASSES = 3            # electrical and mechanical fits in turn (the first on a spline path between the samples)
-_SATURATION = KERNEL_SLOTS.index('saturation_coefficient')
+_SATURATION, _REMANENCE = (KERNEL_SLOTS.index(name) for name in ELECTRICAL_FIELDS[4:])
 FRICTION_SPEEDS = np.concatenate(([0.0], np.geomspace(1e-3, 0.3, 12)))   # v_s tried, times the path's peak speed
 
 
@@ -137,8 +139,8 @@ class SolenoidResult:
 
 def identify_solenoid(data: Recording | Path | str | None = None, *, sample_period: float | None = None,
                       voltage: ArrayLike | None = None, current: ArrayLike | None = None,
-                      position: ArrayLike | None = None, friction: bool = False,
-                      saturation: bool = False) -> SolenoidResult:
+                      position: ArrayLike | None = None, friction: bool = False, saturation: bool = False,
+                      remanence: bool = False) -> SolenoidResult:
     """Identify a solenoid's R, L0, a, g0, m, B, k, F0 from a whole record of its voltage, current and position.
 
     Parameters
@@ -159,6 +161,9 @@ def identify_solenoid(data: Recording | Path | str | None = None, *, sample_peri
         Add the iron's saturation to the flux linkage, I = psi / L(x) + c psi^3 (`saturation_coefficient` c in
         A/Wb^3, >= 0, after g0; the force then M^2 L'(x) / 2 with M = psi / L(x)): the solenoid discrepancy's
         electrical candidate.
+    remanence : bool, optional
+        Add the iron's residual magnetism, I = psi / L(x) (+ c psi^3) - I_r (`remanence_current` I_r in A, >= 0;
+        it enters the back-EMF and the force through M = psi / L(x) = I + I_r without saturation).
 
     Returns
     -------
@@ -193,7 +198,7 @@ def identify_solenoid(data: Recording | Path | str | None = None, *, sample_peri
     if not np.ptp(x) > 0:
         raise InputError(f'{source}: the position never changes: the solenoid\'s inductance curve and mechanics '
                          f'need the armature to move')
-    return _identify(u, i, x, ts, source, friction, saturation)
+    return _identify(u, i, x, ts, source, friction, saturation, remanence)
 
 
 def solenoid_hint(recording: Recording) -> str | None:
@@ -215,21 +220,20 @@ def solenoid_hint(recording: Recording) -> str | None:
             f'({1e3 * p["gap"]:.3g} mm - x), force I^2 L\'(x)/2): identify it with --actuator solenoid')
 
 
-def _identify(u, i, x, ts, source, friction=False, saturation=False):
+def _identify(u, i, x, ts, source, friction=False, saturation=False, remanence=False):
     substeps = 2 * max(1, math.ceil(ts / SUBSTEP / 2))
     stopped = on_stop(x)
-    electrical = _start(u, i, x, ts)
-    if saturation:   # c from zero (scaled in _electrical)
-        electrical = np.append(electrical, 0.0)
+    electrical = np.append(_start(u, i, x, ts), (0.0, 0.0))   # ELECTRICAL_FIELDS: the effects from zero
+    free = np.array([True] * 4 + [saturation, remanence])      # which of them are fitted
     mechanical, speed = None, None   # the first pass: the armature's path a spline through the samples
     for _ in range(PASSES):
         nodes, error = _nodes(u, i, x, stopped, electrical, mechanical, speed, ts, substeps)
         keep = np.ones(len(u), bool)
         keep[:_settling(electrical, x, ts, len(u))] = False
         if mechanical is None:
-            electrical = _electrical(u, i, nodes, electrical, ts, substeps, keep, x, source)[0]
+            electrical = _electrical(u, i, nodes, electrical, free, ts, substeps, keep, x, source)[0]
         keep &= _reliable(i, x, stopped, error, electrical, ts)
-        electrical, jacobian, e_residual = _electrical(u, i, nodes, electrical, ts, substeps, keep, x, source)
+        electrical, jacobian, e_residual = _electrical(u, i, nodes, electrical, free, ts, substeps, keep, x, source)
         rows = free_rows(x, stopped, nodes)
         if rows.size < MIN_FREE_ROWS:
             raise InputError(f'{source}: the armature is free on {rows.size} force-balance rows only (at least '
@@ -238,22 +242,21 @@ def _identify(u, i, x, ts, source, friction=False, saturation=False):
         mechanical, m_cov, m_residual, phi, stencil, speed = _mechanics(u, i, x, nodes, electrical, ts, substeps,
                                                                         rows, speeds)
     e_cov = _sandwich(jacobian, e_residual, ELECTRICAL_LAGS)
-    count = len(electrical)
+    count = int(free.sum())
     gain = np.empty((len(mechanical), count))   # d(mechanical)/d(electrical)
-    for j in range(count):
-        step = 1e-6 * (electrical[j] or np.sqrt(e_cov[j, j]))
+    for column, j in enumerate(np.flatnonzero(free)):
+        step = 1e-6 * (electrical[j] or np.sqrt(e_cov[column, column]))
         shifted = electrical.copy()
         shifted[j] += step
-        gain[:, j] = (_mechanics(u, i, x, nodes, shifted, ts, substeps, rows, () if speed is None else (speed,))[0]
-                      - mechanical) / step
-    names = ELECTRICAL + (('saturation_coefficient',) if saturation else ()) + MECHANICAL + \
-        (('coulomb_force',) if friction else ())
+        gain[:, column] = (_mechanics(u, i, x, nodes, shifted, ts, substeps, rows,
+                                      () if speed is None else (speed,))[0] - mechanical) / step
+    names = tuple(np.array(ELECTRICAL_FIELDS)[free]) + MECHANICAL + (('coulomb_force',) if friction else ())
     covariance = np.zeros((len(names), len(names)))
     covariance[:count, :count] = e_cov
     covariance[count:, count:] = m_cov + gain @ e_cov @ gain.T
     covariance[count:, :count] = gain @ e_cov
     covariance[:count, count:] = covariance[count:, :count].T
-    values = np.concatenate((electrical, mechanical))
+    values = np.concatenate((electrical[free], mechanical))
     if not np.all(np.isfinite(values)) or not np.all(np.diag(covariance) >= 0):
         raise InputError(f'{source}: the solenoid model gives no finite estimate from these data')
     std = np.sqrt(np.diag(covariance))
@@ -265,25 +268,30 @@ def _identify(u, i, x, ts, source, friction=False, saturation=False):
                           settings={} if speed is None else {'friction_speed': float(speed)})
 
 
-def _electrical(u, i, nodes, start, ts, substeps, keep, x, source):
-    """(R, L0, a, g0[, c]), the Jacobian of the current's residual by them and that residual (at the samples `keep`):
-    the output-error fit from `start`, the armature moved along `nodes`. c (the saturation, if `start` has it) is
-    scaled by the largest current over the cube of the largest flux linkage without it: c psi^3 a share of I."""
+def _electrical(u, i, nodes, start, free, ts, substeps, keep, x, source):
+    """(The ELECTRICAL_FIELDS vector with the `free` ones fitted, the Jacobian of the current's residual by those and
+    that residual at the samples `keep`): the output-error fit from `start`, the armature moved along `nodes`. The
+    effects are scaled by the largest current: c by it over the cube of the largest flux linkage without them (c
+    psi^3 a share of I), I_r by it."""
+    peak = np.max(np.abs(i))
     scale = np.abs(start)
-    low = np.array([1e-6, 0.0, 1e-6, (x.max() - x.min()) * 1e-3 + x.max(), 0.0][:len(start)])
-    if len(start) > 4:
-        peak = np.max(np.abs(i))
-        scale[4] = max(scale[4], peak / np.max(np.abs(inductance(x, *start[1:4]) * i)) ** 3)
-    low /= scale
+    scale[4:] = np.maximum(scale[4:], (peak / np.max(np.abs(inductance(x, *start[1:4]) * i)) ** 3, peak))
+    scale = scale[free]
+    low = np.array([1e-6, 0.0, 1e-6, (x.max() - x.min()) * 1e-3 + x.max(), 0.0, 0.0])[free] / scale
+
+    def full(q):
+        values = start.copy()
+        values[free] = q * scale
+        return values
 
     def residual(q):
-        return (i - _simulated(u, i, nodes, q * scale, ts, substeps)[0])[keep]
+        return (i - _simulated(u, i, nodes, full(q), ts, substeps)[0])[keep]
     try:
-        solution = least_squares(residual, np.maximum(start / scale, low), bounds=(low, np.inf), x_scale='jac',
-                                 xtol=1e-12, ftol=1e-12)
+        solution = least_squares(residual, np.maximum(start[free] / scale, low), bounds=(low, np.inf),
+                                 x_scale='jac', xtol=1e-12, ftol=1e-12)
     except (ValueError, np.linalg.LinAlgError) as exc:
         raise InputError(f'{source}: the solenoid model cannot be fitted to these data ({exc})') from None
-    return solution.x * scale, -solution.jac / scale, solution.fun
+    return full(solution.x), -solution.jac / scale, solution.fun
 
 
 def _settling(electrical, x, ts, n):
@@ -358,33 +366,33 @@ def _spline_nodes(x, stopped, substeps):
 
 
 @numba.njit(cache=True)
-def _coil_current(psi, x, l0, a, g0, c):
-    """I = psi / L(x) + c psi^3."""
-    return psi / inductance(x, l0, a, g0) + c * psi * psi * psi
+def _coil_current(psi, x, l0, a, g0, c, remanence):
+    """I = psi / L(x) + c psi^3 - I_r."""
+    return psi / inductance(x, l0, a, g0) + c * psi * psi * psi - remanence
 
 
 @numba.njit(cache=True)
-def _driven(u, i0, nodes, r, l0, a, g0, c, ts, substeps):
+def _driven(u, i0, nodes, r, l0, a, g0, c, remanence, ts, substeps):
     """(The current at the samples, (n,); the magnetizing current psi / L(x) at the sub-step boundaries of each
     interval, (n - 1, substeps + 1)), the armature moved along `nodes` (positions at the half sub-steps): RK4 of
-    dpsi/dt = u - R I(psi, x(t)), I = psi / L(x) + c psi^3."""
+    dpsi/dt = u - R I(psi, x(t)), I = psi / L(x) + c psi^3 - I_r."""
     n = nodes.shape[0]
     current = np.empty(n + 1)
     magnetizing = np.empty((n, substeps + 1))
     h = ts / substeps
-    psi = flux(i0, inductance(nodes[0, 0], l0, a, g0), c)
+    psi = flux(i0 + remanence, inductance(nodes[0, 0], l0, a, g0), c)
     for k in range(n):
         magnetizing[k, 0] = psi / inductance(nodes[k, 0], l0, a, g0)
-        current[k] = magnetizing[k, 0] + c * psi * psi * psi
+        current[k] = magnetizing[k, 0] + c * psi * psi * psi - remanence
         for s in range(substeps):
             x0, xm, x1 = nodes[k, 2 * s], nodes[k, 2 * s + 1], nodes[k, 2 * s + 2]
-            k1 = u[k] - r * _coil_current(psi, x0, l0, a, g0, c)
-            k2 = u[k] - r * _coil_current(psi + 0.5 * h * k1, xm, l0, a, g0, c)
-            k3 = u[k] - r * _coil_current(psi + 0.5 * h * k2, xm, l0, a, g0, c)
-            k4 = u[k] - r * _coil_current(psi + h * k3, x1, l0, a, g0, c)
+            k1 = u[k] - r * _coil_current(psi, x0, l0, a, g0, c, remanence)
+            k2 = u[k] - r * _coil_current(psi + 0.5 * h * k1, xm, l0, a, g0, c, remanence)
+            k3 = u[k] - r * _coil_current(psi + 0.5 * h * k2, xm, l0, a, g0, c, remanence)
+            k4 = u[k] - r * _coil_current(psi + h * k3, x1, l0, a, g0, c, remanence)
             psi += h / 6.0 * (k1 + 2.0 * (k2 + k3) + k4)
             magnetizing[k, s + 1] = psi / inductance(x1, l0, a, g0)
-    current[n] = magnetizing[n - 1, substeps] + c * psi * psi * psi
+    current[n] = magnetizing[n - 1, substeps] + c * psi * psi * psi - remanence
     return current, magnetizing
 
 
@@ -438,8 +446,8 @@ def _paths(u, i0, x, stopped, p, ts, substeps):
         if k > 0:
             error[k - 1] = max(error[k - 1], jump)
         if k + 1 < n - 1:   # the flux linkage carries over to the measured position
-            psi = flux(i, inductance(x_end, p[1], p[2], p[3]), p[_SATURATION])
-            i = _coil_current(psi, x[k + 1], p[1], p[2], p[3], p[_SATURATION])
+            psi = flux(i + p[_REMANENCE], inductance(x_end, p[1], p[2], p[3]), p[_SATURATION])
+            i = _coil_current(psi, x[k + 1], p[1], p[2], p[3], p[_SATURATION], p[_REMANENCE])
     return current, position, error
 
 
@@ -450,17 +458,16 @@ def _nodes(u, i, x, stopped, electrical, mechanical, speed, ts, substeps):
     if mechanical is None:
         return _spline_nodes(x, stopped, substeps), _spline_error(x, stopped)
     friction = max(mechanical[4:5].sum(), 0.0)
-    kernel = np.concatenate((electrical[:4], mechanical[:4], (x.min(), x.max(), friction, speed or 0.0,
-                                                              max(electrical[4:5].sum(), 0.0))))   # KERNEL_SLOTS
+    kernel = np.concatenate((electrical[:4], mechanical[:4], (x.min(), x.max(), friction, speed or 0.0),
+                             np.maximum(electrical[4:], 0.0)))   # KERNEL_SLOTS
     _, nodes, error = _paths(u, float(i[0]), x, stopped, kernel, ts, 2 * substeps)
     return nodes, error
 
 
 def _simulated(u, i, nodes, electrical, ts, substeps):
     """(current predicted at the samples, magnetizing current psi / L(x) at the sub-step boundaries) of the
-    electrical parameters (R, L0, a, g0[, c]), the armature moved along `nodes`."""
-    c = electrical[4] if len(electrical) > 4 else 0.0
-    return _driven(u, float(i[0]), nodes, *electrical[:4], c, ts, substeps)
+    electrical vector (ELECTRICAL_FIELDS), the armature moved along `nodes`."""
+    return _driven(u, float(i[0]), nodes, *electrical, ts, substeps)
 
 
 def _start(u, i, x, ts):

@@ -8,14 +8,17 @@ candidate (CANDIDATES) is identify_solenoid with one effect added, tried on ever
   v_s searched, 0 for a dry Fc sign(v)), judged on the force balance: a weak friction hides in the damping and the
   preload (0.05 N left the force balance within its floor, B and F0 7 and 8 sigmas off);
 - iron saturation, I = psi / L(x) + c psi^3 (its `saturation`), judged on the electrical equation: a weak one
-  hides in the inductance curve and biases the mechanics through the force.
-A candidate is named when it is significant, its strength at least MIN_T of its sigmas above zero (a friction
-opposes the motion, the iron's saturation raises the current), and either the nominal model fitted its equation
-or it removes at least MIN_SHARE of that equation's excess over its noise floor. The named effects are then fitted
-together; the verdict is `explained` if both equations fit with them, else `unexplained` with them named (and
+  hides in the inductance curve and biases the mechanics through the force;
+- residual magnetism, I = psi / L(x) - I_r (its `remanence`), judged on the force balance, where it shows most
+  (the force goes with (I + I_r)^2; the voltage only through the back-EMF I_r L'(x) v).
+A candidate qualifies when it is significant, its strength at least MIN_T of its sigmas above zero (a friction
+opposes the motion, the iron's saturation raises the current, its remanence lowers it), and either the nominal model
+fitted its equation or it removes at least MIN_SHARE of that equation's excess over its noise floor. The ones that
+qualify are then fitted together, and the least significant of those under MIN_T sigmas in that fit dropped until
+none is (an effect can stand in for another: a remanence for a saturation, 22 sigma alone and 0 with it); the rest
+are named and the verdict is `explained` if both equations fit with them, else `unexplained` with them named (and
 with none named, located on the signals the residual depends on). The gap is the NRMSE of each signal's free run
-under the measured voltage (solenoid_predict.py), before and after. Not in the library: eddy currents, residual
-magnetism.
+under the measured voltage (solenoid_predict.py), before and after. Not in the library: eddy currents.
 """
 from dataclasses import dataclass
 
@@ -43,16 +46,18 @@ class Candidate:
 
 
 CANDIDATES = (Candidate('friction', 'friction', 'coulomb_force', 'N', 'mechanical'),
-              Candidate('iron_saturation', 'saturation', 'saturation_coefficient', 'A/Wb^3', 'electrical'))
+              Candidate('iron_saturation', 'saturation', 'saturation_coefficient', 'A/Wb^3', 'electrical'),
+              Candidate('residual_magnetism', 'remanence', 'remanence_current', 'A', 'mechanical'))
 
 
 @dataclass
 class SolenoidDiagnosis:
     """The solenoid model on a record (`nominal`), each candidate fitted with it (`tried`: {name: SolenoidResult}),
-    the model with the named ones (`final`) and the gaps."""
+    the candidates named (`names`), the model with them (`final`) and the gaps."""
 
     nominal: SolenoidResult
     tried: dict
+    names: list = None
     final: SolenoidResult | None = None
     gaps: dict = None      # 'before' / 'after': {signal: NRMSE of the free run}
 
@@ -68,14 +73,10 @@ class SolenoidDiagnosis:
         value, std = result.parameters[candidate.parameter], result.std[candidate.parameter]
         return bool(value > 0 and value >= MIN_T * std)
 
-    def named(self, candidate: Candidate) -> bool:
+    def qualifies(self, candidate: Candidate) -> bool:
+        """Significant alone, and the nominal model fitted its equation or it removes MIN_SHARE of its excess."""
         return self.significant(candidate) and (self.nominal.fit[candidate.equation].adequate
                                                 or self.share(candidate) >= MIN_SHARE)
-
-    @property
-    def names(self) -> list:
-        """The named candidates."""
-        return [c for c in CANDIDATES if self.named(c)]
 
     @property
     def verdict(self) -> str:
@@ -97,7 +98,7 @@ class SolenoidDiagnosis:
                         f'its excess removed')
             candidates.append({'effect': c.name, 'score': round(share, 6), 'significant': self.significant(c),
                                'evidence': evidence})
-            if self.named(c):
+            if c in self.names:
                 effects.append({'effect': c.name, 'parameters': {c.parameter: self.final.parameters[c.parameter]},
                                 'std': {c.parameter: self.final.std[c.parameter]},
                                 'settings': dict(tried.settings), 'share': round(share, 4),
@@ -144,9 +145,17 @@ def diagnose_solenoid(data) -> SolenoidDiagnosis:
     nominal = identify_solenoid(recording)
     diagnosis = SolenoidDiagnosis(nominal, {c.name: identify_solenoid(recording, **{c.option: True})
                                             for c in CANDIDATES})
-    named = diagnosis.names
-    diagnosis.final = (nominal if not named else diagnosis.tried[named[0].name] if len(named) == 1
-                       else identify_solenoid(recording, **{c.option: True for c in named}))
+    named = [c for c in CANDIDATES if diagnosis.qualifies(c)]
+    final = nominal if not named else diagnosis.tried[named[0].name]
+    while len(named) > 1:   # together: the least significant under MIN_T sigmas out, until none is
+        final = identify_solenoid(recording, **{c.option: True for c in named})
+        t = {c: final.parameters[c.parameter] / final.std[c.parameter] for c in named}
+        weakest = min(named, key=t.get)
+        if t[weakest] >= MIN_T:
+            break
+        named.remove(weakest)
+        final = diagnosis.tried[named[0].name]
+    diagnosis.names, diagnosis.final = named, final
     before = _gaps(nominal, recording)
     diagnosis.gaps = {'before': before, 'after': _gaps(diagnosis.final, recording) if named else dict(before)}
     return diagnosis

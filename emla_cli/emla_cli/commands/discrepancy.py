@@ -42,8 +42,8 @@ def add_arguments(parser):
     parser.add_argument('--model-out', metavar='M.yaml',
                         help='write the final model (nominal parameters and the effects named) as a model file')
     parser.add_argument('--actuator', default='moving_coil', metavar='FAMILY',
-                        help='moving_coil (default) or solenoid (the solenoid model, with a friction of its armature '
-                        'and the iron\'s saturation as the candidates: docs/physics.md 9.5)')
+                        help='moving_coil (default) or solenoid (the solenoid model, with a friction of its armature, '
+                        'the iron\'s saturation and its residual magnetism as the candidates: docs/physics.md 9.5)')
     add_force_argument(parser)
     add_data_arguments(parser)
 

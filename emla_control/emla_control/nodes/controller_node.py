@@ -171,8 +171,8 @@ class ControllerNode(EmlaNode):
         self.effect_estimates = {} if self.controller.adapt_effects else None  # stamp -> EffectEstimate
         self.started = False  # the law has had a usable sample
         self.commanded = False
-        self.command = frame_publishers(self, {'voltage': topics.COMMAND_TOPIC,
-                                                      'reference': topics.REFERENCE_TOPIC})
+        self.command = frame_publishers(self, {'voltage': topics.COMMAND_TOPIC, 'reference': topics.REFERENCE_TOPIC},
+                                        p.control_period)
         self.states = FrameSets(
             self, {name: f'{topics.MEASURED_FRAMES_TOPIC} {name}' if p.measured_frames else topics.MEASURED_TOPICS[name]
                    for name in ('current', 'position')},

@@ -5,7 +5,7 @@ import numpy as np
 from rclpy.clock import Clock, ClockType
 
 from emla_core.messages import read_frame_cdr, read_signal_frames_cdr
-from emla_core.nodes.qos import FRAME_QOS
+from emla_core.nodes.qos import FRAME_QOS, frame_qos
 from emla_core.topics import START_TOPIC, to_ns
 from emla_msgs.msg import SampleFrame, SignalFrames
 
@@ -112,5 +112,8 @@ class FrameSets:
         self._on_set(stamp, period, {name: samples for name, (samples, _) in frames.items()} if usable else None)
 
 
-def frame_publishers(node, topics):
-    return {name: node.create_publisher(SampleFrame, topic, FRAME_QOS) for name, topic in topics.items()}
+def frame_publishers(node, topics, frame_period=None):
+    """SampleFrame publishers {name: publisher} of {name: topic}, keeping FRAME_HISTORY of frames `frame_period` s
+    long (None: FRAME_QOS, 1 ms frames)."""
+    qos = FRAME_QOS if frame_period is None else frame_qos(frame_period)
+    return {name: node.create_publisher(SampleFrame, topic, qos) for name, topic in topics.items()}

@@ -1,5 +1,7 @@
 """The QoS profiles of the suite's topics (emla_core.topics.QOS as rclpy profiles) and the reader QoS
 that matches the publishers of a standard input topic."""
+import math
+
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from emla_core.topics import QOS
@@ -15,6 +17,14 @@ def qos_profile(kind):
 
 FRAME_QOS, LATCHED_QOS, CLOCK_QOS, DIAGNOSTICS_QOS = map(qos_profile, ('frame', 'latched', 'clock', 'diagnostics'))
 INPUT_DEPTH = 1000  # messages a reader of a standard input topic keeps (1 s at 1 kHz)
+FRAME_HISTORY = 1.0  # s of frames a frame publisher keeps: a reader outside the loop (a recorder) may lag that much
+
+
+def frame_qos(frame_period):
+    """FRAME_QOS keeping FRAME_HISTORY s of frames `frame_period` s long (its own depth at least: 1 ms frames)."""
+    profile = qos_profile('frame')
+    profile.depth = max(profile.depth, math.ceil(FRAME_HISTORY / frame_period - 1e-9))
+    return profile
 
 
 def matching_qos(publishers):

@@ -16,6 +16,11 @@ With M = psi / L(x) (the current the circuit alone would take), the energy W = p
 gives F = -dW/dx at constant psi = M^2 L'(x) / 2, and l = 1 / (1 / L(x) + 3 c psi^2), e = M L'(x) l / L(x);
 psi from I by Newton's method (`flux`).
 
+Residual magnetism (`remanence_current` I_r > 0): the iron's remanent magnetisation as an equivalent current in the
+circuit, I = psi / L(x) + c psi^3 - I_r, so at I = 0 the circuit keeps psi = L(x) I_r and its force (a valve that
+sticks after release). The energy gains -I_r psi, which does not depend on x: F = M^2 L'(x) / 2, l and e as above;
+psi from I + I_r.
+
 These are handed to equations.coil_rates, the suite's one right-hand side. The armature moves between end stops
 x_min and x_max; a stop is inelastic: the armature that reaches it stays there, at rest, while the net force
 presses it on, and leaves when that force turns.
@@ -42,7 +47,8 @@ SOLENOID_UNITS = {'resistance': 'ohm', 'leakage_inductance': 'H', 'gap_coefficie
 # The solenoid's effects as the discrepancy names them and a model file lists them: {effect: ({its parameter, as
 # identified: the SolenoidParameters field}, the settings it carries, fields too)}.
 SOLENOID_EFFECTS = {'friction': ({'coulomb_force': 'friction_force'}, ('friction_speed',)),
-                    'iron_saturation': ({'saturation_coefficient': 'saturation_coefficient'}, ())}
+                    'iron_saturation': ({'saturation_coefficient': 'saturation_coefficient'}, ()),
+                    'residual_magnetism': ({'remanence_current': 'remanence_current'}, ())}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -78,6 +84,8 @@ class SolenoidParameters:
         below breakaway (equations.friction_force).
     saturation_coefficient : float
         c (A / Wb^3, >= 0) of the iron's saturation: I = psi / L(x) + c psi^3; 0: none.
+    remanence_current : float
+        I_r (A, >= 0), the iron's residual magnetism as an equivalent current: I = psi / L(x) + c psi^3 - I_r; 0: none.
 
     Examples
     --------
@@ -100,6 +108,7 @@ class SolenoidParameters:
     friction_force: float = 0.0
     friction_speed: float = 0.0
     saturation_coefficient: float = 0.0
+    remanence_current: float = 0.0
 
     def __post_init__(self):
         for field in dataclasses.fields(self):
@@ -111,7 +120,7 @@ class SolenoidParameters:
             if getattr(self, name) <= 0.0:
                 raise ValueError(f'SolenoidParameters.{name} must be positive, got {getattr(self, name)!r}')
         for name in ('leakage_inductance', 'damping', 'spring_stiffness', 'friction_force', 'friction_speed',
-                     'saturation_coefficient'):
+                     'saturation_coefficient', 'remanence_current'):
             if getattr(self, name) < 0.0:
                 raise ValueError(f'SolenoidParameters.{name} must be >= 0, got {getattr(self, name)!r}')
         if not self.stroke_min < self.stroke_max < self.gap:
@@ -135,11 +144,12 @@ class SolenoidParameters:
         return inductance_slope(position, self.gap_coefficient, self.gap)
 
     def flux_linkage(self, position, current):
-        """psi (V s = Wb): L(x) I, or with saturation the root of psi / L(x) + c psi^3 = I."""
-        return _flux(np.asarray(current, dtype=float), self.inductance(position), self.saturation_coefficient)
+        """psi (V s = Wb): L(x) (I + I_r), or with saturation the root of psi / L(x) + c psi^3 = I + I_r."""
+        return _flux(np.asarray(current, dtype=float) + self.remanence_current, self.inductance(position),
+                     self.saturation_coefficient)
 
     def magnetizing_current(self, position, current):
-        """M = psi / L(x) (A): the current itself without saturation."""
+        """M = psi / L(x) (A): the current itself without saturation and remanence."""
         return self.flux_linkage(position, current) / self.inductance(position)
 
     def emf_coefficient(self, position, current):
@@ -165,8 +175,8 @@ class SolenoidParameters:
 
 KERNEL_SLOTS = ('resistance', 'leakage_inductance', 'gap_coefficient', 'gap', 'mass', 'damping', 'spring_stiffness',
                 'spring_preload', 'stroke_min', 'stroke_max', 'friction_force', 'friction_speed',
-                'saturation_coefficient')
-_R, _L0, _A, _G0, _M, _B, _K, _F0, _XMIN, _XMAX, _FC, _VS, _C = range(len(KERNEL_SLOTS))
+                'saturation_coefficient', 'remanence_current')
+_R, _L0, _A, _G0, _M, _B, _K, _F0, _XMIN, _XMAX, _FC, _VS, _C, _IR = range(len(KERNEL_SLOTS))
 NEWTON_STEPS = 8   # of `flux`: from psi = L I, each at least doubles the correct digits once near the root
 
 
@@ -191,7 +201,7 @@ def coil_terms(i, x, p):
     back-EMF coefficient and co-energy force, with the iron's saturation."""
     inductance_x = inductance(x, p[_L0], p[_A], p[_G0])
     slope = inductance_slope(x, p[_A], p[_G0])
-    psi = flux(i, inductance_x, p[_C])
+    psi = flux(i + p[_IR], inductance_x, p[_C])
     magnetizing = psi / inductance_x
     incremental = 1.0 / (1.0 / inductance_x + 3.0 * p[_C] * psi * psi)
     return incremental, magnetizing * slope * incremental / inductance_x, 0.5 * magnetizing * magnetizing * slope

@@ -16,7 +16,7 @@ from emla_core.nodes.faults import Faults
 from emla_core.nodes.frames import FrameSets, frame_publishers
 from emla_core.nodes.node import EmlaNode
 from emla_core.nodes.param_specs import Spec, declare
-from emla_core.nodes.qos import FRAME_QOS
+from emla_core.nodes.qos import FRAME_QOS, frame_qos
 from emla_core.nodes.run import run
 from emla_msgs.msg import SignalFrames
 from emla_sim.sensor import Sensor, SensorConfig
@@ -31,6 +31,9 @@ SPECS = [
                 0.0, 1.0),
     Spec('delay_samples', SensorConfig.delay_samples, 'measurement delay, samples', 0, 1_000_000),
     Spec('seed', SensorConfig.seed, 'seed of the noise generator', 0, 2**31 - 1),
+    Spec('control_period', topics.CONTROL_PERIOD, 'the plant\'s control period, the length of the frames it measures: '
+                                                  'its publishers keep a second of them for a reader that lags, s',
+         1e-6, 1.0),
 ]
 
 
@@ -40,9 +43,10 @@ class SensorNode(EmlaNode):
     def __init__(self):
         super().__init__()
         p = declare(self, SPECS)
-        self.sensor = Sensor(SensorConfig(**{spec.name: getattr(p, spec.name) for spec in SPECS}))
-        self.outputs = frame_publishers(self, topics.MEASURED_TOPICS)
-        self.together = self.create_publisher(SignalFrames, topics.MEASURED_FRAMES_TOPIC, FRAME_QOS)
+        self.sensor = Sensor(SensorConfig(**{spec.name: getattr(p, spec.name) for spec in SPECS
+                                            if spec.name != 'control_period'}))
+        self.outputs = frame_publishers(self, topics.MEASURED_TOPICS, p.control_period)
+        self.together = self.create_publisher(SignalFrames, topics.MEASURED_FRAMES_TOPIC, frame_qos(p.control_period))
         self.states = FrameSets(self, {name: f'{topics.PLANT_FRAMES_TOPIC} {name}' for name in STATES},
                                        self.measure, Faults(self), subscribe=False)
         self.voltage = None  # (stamp, samples) of the period being measured
