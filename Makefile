@@ -22,7 +22,7 @@ setup:
 # time (--dist loadfile: a module's fixtures are built once); every ROS test takes a domain of its own (locked).
 # make test fuzzes the commands with TEST_FUZZ_CASES mutated inputs (make sweep: FUZZ_CASES).
 TEST_WORKERS ?= $(shell nproc)
-TEST_FUZZ_CASES ?= 500
+TEST_FUZZ_CASES ?= 300
 PYTEST := $(VENV)/bin/python -m pytest -n $(TEST_WORKERS) --dist loadfile
 
 test: setup lint
