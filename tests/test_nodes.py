@@ -165,9 +165,14 @@ def test_the_loop_tracks_the_reference_and_the_identifier_sees_aligned_samples(r
 def test_a_run_done_twice_gives_identical_samples_and_estimates(runs):
     for topic in VOLTAGE_TOPICS + STATE_TOPICS:
         np.testing.assert_array_equal(runs[0].signal(topic), runs[1].signal(topic), err_msg=topic)
-    for first, second in zip(*(run.estimates for run in runs), strict=True):
-        assert np.array_equal(first.covariance, second.covariance, equal_nan=True)
-        assert [getattr(first, name) for name in TRUTH] == [getattr(second, name) for name in TRUTH]
+    # the estimates by stamp: latched (depth 1), so a listener starved of CPU (the tests run two at a time) may
+    # miss a few, as test_launch allows for
+    first, second = ({topics.stamp_to_ns(msg.header.stamp): msg for msg in run.estimates} for run in runs)
+    common = sorted(set(first) & set(second))
+    assert len(common) >= 0.9 * PERIODS // 10
+    for stamp in common:
+        assert np.array_equal(first[stamp].covariance, second[stamp].covariance, equal_nan=True)
+        assert [getattr(first[stamp], name) for name in TRUTH] == [getattr(second[stamp], name) for name in TRUTH]
 
 
 def test_the_plant_exits_0_on_sigterm_while_it_waits_to_start(tmp_path):

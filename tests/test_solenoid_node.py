@@ -25,14 +25,12 @@ EMLA = str(VENV_BIN / 'emla')
 SIGNALS = ('/emla/voltage', '/emla/current', '/emla/position')
 
 
-def test_the_identifier_node_follows_a_solenoids_resistance(tmp_path, ros_env):
-    bag, model = tmp_path / 'valve', tmp_path / 'valve.yaml'
-    for argv in (['simulate', '--actuator', 'solenoid', '--duration', '1', '--bag', bag],
-                 ['identify', bag, '--actuator', 'solenoid', '--model-out', model]):
-        subprocess.run([EMLA, *map(str, argv)], check=True, capture_output=True, timeout=120)
+def _played(bag, tmp_path, ros_env, **parameters):
+    """The last /emla/effects of a solenoid's identifier node (`parameters` beside actuator and sample_period) after
+    the bag's measured signals were played into it."""
     params = tmp_path / 'identifier.yaml'
     params.write_text(yaml.safe_dump({'/emla/identifier': {'ros__parameters': {
-        'use_sim_time': True, 'actuator': 'solenoid', 'model_file': str(model), 'sample_period': 2e-4}}}))
+        'use_sim_time': True, 'actuator': 'solenoid', 'sample_period': 2e-4, **parameters}}}))
     with processes() as start:
         identifier = start([EMLA, 'run', 'identifier', '--params-file', str(params)], env=ros_env)
         play = start([EMLA, 'play', str(bag), '--rate', '0', '--wait', '60', '--topics', *SIGNALS], env=ros_env)
@@ -41,7 +39,15 @@ def test_the_identifier_node_follows_a_solenoids_resistance(tmp_path, ros_env):
         echo = start([EMLA, 'echo', '/emla/effects', '--count', '1', '--timeout', '30'], env=ros_env)
         out, err = echo.communicate(timeout=60)
         assert echo.returncode == 0 and identifier.poll() is None, err
-    online = next(yaml.safe_load_all(out))
+    return next(yaml.safe_load_all(out))
+
+
+def test_the_identifier_node_follows_a_solenoids_resistance(tmp_path, ros_env):
+    bag, model = tmp_path / 'valve', tmp_path / 'valve.yaml'
+    for argv in (['simulate', '--actuator', 'solenoid', '--duration', '1', '--bag', bag],
+                 ['identify', bag, '--actuator', 'solenoid', '--model-out', model]):
+        subprocess.run([EMLA, *map(str, argv)], check=True, capture_output=True, timeout=120)
+    online = _played(bag, tmp_path, ros_env, model_file=str(model))
     assert online['names'] == ['resistance']
     recording = read_bag(bag).recording
     offline = ResistanceTracker(read(model).solenoid(), recording.sample_period, memory_time=1e6)
@@ -117,19 +123,7 @@ def test_the_identifier_node_identifies_a_whole_solenoid_online(tmp_path, ros_en
     bag = tmp_path / 'valve'
     subprocess.run([EMLA, 'simulate', '--actuator', 'solenoid', '--duration', '2', '--bag', str(bag)], check=True,
                    capture_output=True, timeout=120)
-    params = tmp_path / 'identifier.yaml'
-    params.write_text(yaml.safe_dump({'/emla/identifier': {'ros__parameters': {
-        'use_sim_time': True, 'actuator': 'solenoid', 'online_model': True, 'sample_period': 2e-4,
-        'window_time': 2.0, 'refit_period': 1.0}}}))
-    with processes() as start:
-        identifier = start([EMLA, 'run', 'identifier', '--params-file', str(params)], env=ros_env)
-        play = start([EMLA, 'play', str(bag), '--rate', '0', '--wait', '60', '--topics', *SIGNALS], env=ros_env)
-        _, err = play.communicate(timeout=180)
-        assert play.returncode == 0, err
-        echo = start([EMLA, 'echo', '/emla/effects', '--count', '1', '--timeout', '30'], env=ros_env)
-        out, err = echo.communicate(timeout=60)
-        assert echo.returncode == 0 and identifier.poll() is None, err
-    online = next(yaml.safe_load_all(out))
+    online = _played(bag, tmp_path, ros_env, online_model=True, window_time=2.0, refit_period=1.0)
     truth = SolenoidParameters().identified()
     assert online['names'] == list(truth)
     for name, value, std in zip(online['names'], online['values'], online['std']):
