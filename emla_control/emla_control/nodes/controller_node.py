@@ -32,7 +32,15 @@ from emla_core.errors import InputError
 from emla_core.nodes.faults import Faults
 from emla_core.nodes.frames import FrameSets, frame_publishers, subscribe_signal_frames
 from emla_core.nodes.node import EmlaNode
-from emla_core.nodes.param_specs import ACTUATOR_FIELDS, Spec, actuator_specs, declare, period_samples
+from emla_core.nodes.param_specs import (
+    ACTUATOR_FIELDS,
+    Spec,
+    actuator_specs,
+    declare,
+    family,
+    period_samples,
+    solenoid_from,
+)
 from emla_core.nodes.qos import LATCHED_QOS
 from emla_core.nodes.run import run
 from emla_core.parameters import FAMILIES, ActuatorParameters
@@ -122,14 +130,11 @@ class SolenoidLaw:
 
 def solenoid_controller(p):
     """The SolenoidLaw of a solenoid's controller node (InputError for what only a moving coil's takes)."""
-    from emla_core.model_file import read
-    from emla_core.physics.solenoid import SolenoidParameters
     if p.coulomb_force or p.spring_stiffness or p.adapt_effects:
         raise InputError('actuator solenoid: its spring and friction are in its model file (no coulomb_force, '
                          'spring_stiffness or adapt_effects)')
-    params = read(p.model_file).require('solenoid', p.model_file).solenoid() if p.model_file else SolenoidParameters()
     return SolenoidLaw(solenoid_law.SolenoidController(
-        params, control_period=p.control_period, bandwidth=p.bandwidth, damping=p.damping_ratio,
+        solenoid_from(p.model_file), control_period=p.control_period, bandwidth=p.bandwidth, damping=p.damping_ratio,
         flux_time=p.flux_time, observer_bandwidth=p.observer_bandwidth), p.adaptive, p.min_samples)
 
 
@@ -154,9 +159,7 @@ class ControllerNode(EmlaNode):
         self.samples_per_period = period_samples(p.sample_period, p.control_period)
         self.sample_period = p.sample_period
         self.step_ns = topics.to_ns(p.sample_period)
-        if p.actuator not in FAMILIES:
-            raise InputError(f'actuator {p.actuator!r} is not one of {", ".join(FAMILIES)}')
-        solenoid = p.actuator == 'solenoid'
+        solenoid = family(p.actuator) == 'solenoid'
         self.controller = solenoid_controller(p) if solenoid else moving_coil_controller(p)
         warm_up(self.controller)
         self.reference = StrokeReference(p.stroke, p.reference_period, p.transition, p.reference_offset)

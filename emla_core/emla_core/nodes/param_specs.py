@@ -7,7 +7,7 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.parameter import Parameter
 
 from emla_core.errors import InputError
-from emla_core.parameters import PARAMETER_UNITS, TABLE1
+from emla_core.parameters import FAMILIES, PARAMETER_UNITS, TABLE1
 from emla_core.topics import to_ns
 
 
@@ -52,6 +52,21 @@ def actuator_specs(what):
     """Specs of the actuator parameters (Table 1 defaults); `what` starts their descriptions."""
     return [Spec(name, getattr(TABLE1, name), f'{what} {name.replace("_", " ")}, {PARAMETER_UNITS[name]}',
                  *_RANGES[name]) for name in _RANGES]
+
+
+def family(actuator):
+    """The `actuator` parameter's value checked: one of the families (emla_core.parameters.FAMILIES)."""
+    if actuator not in FAMILIES:
+        raise InputError(f'actuator {actuator!r} is not one of {", ".join(FAMILIES)}')
+    return actuator
+
+
+def solenoid_from(model_file):
+    """The SolenoidParameters of a `model_file` parameter: a solenoid's model file, or empty for issue 24's valve
+    (SolenoidParameters())."""
+    from emla_core.model_file import read
+    from emla_core.physics.solenoid import SolenoidParameters
+    return read(model_file).require('solenoid', model_file).solenoid() if model_file else SolenoidParameters()
 
 
 def declare(node, specs):

@@ -25,7 +25,7 @@ from emla_core import messages, topics
 from emla_core.bag import BagWriter
 from emla_core.errors import InputError
 from emla_core.nodes.node import EmlaNode
-from emla_core.nodes.param_specs import Spec, declare
+from emla_core.nodes.param_specs import Spec, declare, family
 from emla_core.nodes.run import run
 from emla_core.parameters import FAMILIES
 
@@ -57,8 +57,7 @@ class Recorder(EmlaNode):
         self.config = declare(self, SPECS)
         if not self.config.bag:
             raise InputError('parameter `bag` (output directory) is required')
-        if self.config.actuator not in FAMILIES:
-            raise InputError(f'actuator {self.config.actuator!r} is not one of {", ".join(FAMILIES)}')
+        family(self.config.actuator)
         self.bag = BagWriter(self.config.bag, split_size=self.config.split_size,
                              custom_data={'scenario': self.config.scenario})
         self.topic_subscriptions = {topic: self._subscribe(topic) for topic in TOPICS

@@ -42,11 +42,10 @@ from emla_core.nodes.alignment import AlignedSamples
 from emla_core.nodes.faults import Faults
 from emla_core.nodes.frames import subscribe_frames, subscribe_signal_frames
 from emla_core.nodes.node import EmlaNode
-from emla_core.nodes.param_specs import Spec, declare
+from emla_core.nodes.param_specs import Spec, declare, family
 from emla_core.nodes.qos import DIAGNOSTICS_QOS, FRAME_QOS, LATCHED_QOS
 from emla_core.nodes.run import run
 from emla_core.nodes.standard_topics import StandardTopics
-from emla_core.parameters import FAMILIES
 from emla_identification.arx import DEFAULT_ORDERS, DEFAULT_SIGNALS, ArxEstimator
 from emla_identification.online import OnlineIdentifier
 from emla_identification.physical import MODEL_PARAMETERS
@@ -256,9 +255,7 @@ class IdentifierNode(EmlaNode):
         if self.inputs:
             self.POLL_PERIOD = None  # unstamped messages are timed when handled: each as it comes
         memory = dict(sample_period=p.sample_period, forgetting=p.forgetting, memory_time=p.memory_time or None)
-        if p.actuator not in FAMILIES:
-            raise InputError(f'actuator {p.actuator!r} is not one of {", ".join(FAMILIES)}')
-        self.solenoid = p.actuator == 'solenoid'
+        self.solenoid = family(p.actuator) == 'solenoid'
         if p.position_observer and not self.solenoid:
             raise InputError('position_observer is for actuator solenoid (a moving coil\'s position is measured)')
         if p.online_model and not self.solenoid:

@@ -25,7 +25,15 @@ from emla_core import messages, topics
 from emla_core.errors import InputError
 from emla_core.nodes.frames import frame_publishers
 from emla_core.nodes.node import EmlaNode
-from emla_core.nodes.param_specs import ACTUATOR_FIELDS, Spec, actuator_specs, declare, period_samples
+from emla_core.nodes.param_specs import (
+    ACTUATOR_FIELDS,
+    Spec,
+    actuator_specs,
+    declare,
+    family,
+    period_samples,
+    solenoid_from,
+)
 from emla_core.nodes.qos import CLOCK_QOS, FRAME_QOS, LATCHED_QOS
 from emla_core.nodes.run import run
 from emla_core.parameters import FAMILIES, PARAMETER_NAMES, ActuatorParameters
@@ -78,9 +86,13 @@ def effects_from(names, settings):
     return [make_effect(name, **fields[name]) for name in names]
 
 
-def changes_from(times, parameters, factors):
+def check_lengths(times, parameters, factors):
     if not len(times) == len(parameters) == len(factors):
         raise InputError('change_times, change_parameters and change_factors must have the same length')
+
+
+def changes_from(times, parameters, factors):
+    check_lengths(times, parameters, factors)
     return [ParameterChange(t, name, factor) for t, name, factor in zip(times, parameters, factors)]
 
 
@@ -90,8 +102,7 @@ class SolenoidStepper:
 
     def __init__(self, params, times, names, factors, initial_position):
         from emla_sim.solenoid import SolenoidPlant
-        if not len(times) == len(names) == len(factors):
-            raise InputError('change_times, change_parameters and change_factors must have the same length')
+        check_lengths(times, names, factors)
         fields = params.__dataclass_fields__
         for name, factor in zip(names, factors):
             if name not in fields:
@@ -123,13 +134,6 @@ class SolenoidStepper:
         return {'resistance': params.resistance, 'mass': params.mass, 'damping': params.damping}
 
 
-def solenoid_parameters(model_file):
-    """The SolenoidParameters of a solenoid's model file (empty: the defaults, the valve of issue 24)."""
-    from emla_core.model_file import read
-    from emla_core.physics.solenoid import SolenoidParameters
-    return read(model_file).require('solenoid', model_file).solenoid() if model_file else SolenoidParameters()
-
-
 class PlantNode(EmlaNode):
     NAME = 'plant'
 
@@ -144,12 +148,10 @@ class PlantNode(EmlaNode):
         self.awaited_readers = {topics.START_TOPIC: p.start_subscribers,
                                 topics.MEASURED_FRAMES_TOPIC: p.frames_subscribers,
                                 topics.DONE_TOPIC: p.done_subscribers}
-        if p.actuator not in FAMILIES:
-            raise InputError(f'actuator {p.actuator!r} is not one of {", ".join(FAMILIES)}')
-        if p.actuator == 'solenoid':
+        if family(p.actuator) == 'solenoid':
             if p.effects:
                 raise InputError('actuator solenoid takes no effects (the physics layer\'s are the moving coil\'s)')
-            params = solenoid_parameters(p.model_file)
+            params = solenoid_from(p.model_file)
             self.change_times = list(p.change_times)
             self.plant = SolenoidStepper(params, p.change_times, p.change_parameters, p.change_factors,
                                          p.initial_position)
