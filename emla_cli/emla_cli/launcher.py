@@ -251,8 +251,9 @@ class Monitor:
     def __init__(self, node, cpu_times, estimates=topics.PARAMETERS_TOPIC):
         from builtin_interfaces.msg import Time
 
+        from emla_core.messages import message_class
         from emla_core.nodes.qos import LATCHED_QOS
-        from emla_msgs.msg import EffectEstimate, ParameterEstimate
+        from emla_msgs.msg import ParameterEstimate
 
         # Progress comes from the plant's true parameters, published at its start (t = 0) and every 10 ms of
         # simulated time: /clock ticks every control period, which would cost this process a wake-up each.
@@ -268,8 +269,8 @@ class Monitor:
         node.create_subscription(ParameterEstimate, topics.TRUE_PARAMETERS_TOPIC, self._on_tick, LATCHED_QOS,
                                  raw=True)
         node.create_subscription(Time, topics.DONE_TOPIC, self._on_done, LATCHED_QOS)
-        node.create_subscription(ParameterEstimate if estimates == topics.PARAMETERS_TOPIC else EffectEstimate,
-                                 estimates, self._on_estimate, LATCHED_QOS, raw=True)
+        node.create_subscription(message_class(topics.RECORDED[estimates][0]), estimates, self._on_estimate,
+                                 LATCHED_QOS, raw=True)
 
     def _on_tick(self, cdr):
         self.last_tick = (time.monotonic(), header_stamp_ns(cdr))
