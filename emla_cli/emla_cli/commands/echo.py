@@ -94,6 +94,8 @@ def run(args):
 
         def show(msg):
             nonlocal received
+            if args.count and received >= args.count:   # one spin may hand over several: --count N prints N
+                return
             received += 1
             sys.stdout.write(yaml.safe_dump(to_plain(msg, limit), default_flow_style=False, sort_keys=False))
             sys.stdout.write('---\n')
