@@ -5,7 +5,7 @@ import sys
 
 from benchmarks.harness import print_table, write_json
 
-SUITES = ['rls', 'offline', 'loop', 'graph', 'discrepancy', 'trend']
+SUITES = ['rls', 'offline', 'loop', 'graph', 'discrepancy', 'trend', 'observer']
 
 
 def main():

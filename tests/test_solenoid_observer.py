@@ -1,7 +1,7 @@
 """The sensorless position of a solenoid (emla_identification.solenoid_observer) on the independent generator
-(tests/solenoid_generator.py: 5 mA current noise, a 4.9 mA ADC step): L(x) identified on a bench record with
-position, the position then estimated on another record from its voltage and current alone while the coil's R
-rises 20 %, against the generator's position; bad input is one clear line."""
+(tests/solenoid_generator.py: 5 mA current noise, a 4.9 mA ADC step): L(x) and the mechanics identified on a bench
+record with position, the position then estimated on other records from their voltage and current alone while
+the coil's R rises 20 %, against the generator's position; bad input is one clear line."""
 import json
 
 import numpy as np
@@ -24,38 +24,59 @@ def bench():
     return identify_solenoid(recording)
 
 
-def rms_error(bench, rise):
-    """(RMS position error over the stroke, the estimate, R at the record's end) on a record without position."""
-    recording, truth = record(duration=SECONDS, rate=RATE, seed=32, resistance_rise=rise)
+@pytest.fixture(scope='module')
+def rising():
+    """A record (seed 32) whose R rises 20 %, and its R at the end."""
+    recording, truth = record(duration=SECONDS, rate=RATE, seed=32, resistance_rise=RISE)
+    return recording, truth['resistance'] * (1 + RISE * (1 - 0.5 / len(recording)))
+
+
+def observed(bench, recording, smooth=True):
+    """(the estimate from the record's voltage and current alone, its RMS position error over the stroke)."""
     params, noise = observer_model(bench)
     estimate = observe_position(params, recording.sample_period, recording.signals['voltage'],
-                                recording.signals['current'], current_noise=noise)
+                                recording.signals['current'], current_noise=noise, smooth=smooth)
     error = estimate.position - recording.signals['position']
-    return np.sqrt(np.mean(error ** 2)) / STROKE, estimate, truth['resistance'] * (1 + rise)
+    return estimate, np.sqrt(np.mean(error ** 2)) / STROKE
 
 
-@pytest.mark.xfail(strict=True, reason="issue 24's 2 % of the stroke not reached: 2.2 % measured (26.8 um), "
-                                       "2.7-3.4 % on seeds 34-36")
-def test_the_position_within_two_percent_of_the_stroke_while_r_rises(bench):
-    assert rms_error(bench, RISE)[0] < 0.02
-
-
-def test_the_position_within_three_percent_and_r_followed_while_r_rises(bench):
-    share, estimate, final = rms_error(bench, RISE)
-    assert share < 0.03
-    assert estimate.resistance[-1] == pytest.approx(final, rel=2e-3)
+@pytest.mark.parametrize('smooth', [True, False])
+def test_the_position_within_two_percent_of_the_stroke_while_r_rises(bench, rising, smooth):
+    """Issue 24's 2 % of the stroke, offline (0.60 % measured) and causal (0.87 %); R followed to its rise."""
+    recording, final = rising
+    estimate, share = observed(bench, recording, smooth)
+    assert share < 0.02
+    assert estimate.resistance[-1] == pytest.approx(final, rel=1e-3)
+    assert abs(estimate.resistance[-1] - final) < 3 * estimate.resistance_std[-1]
     assert estimate.held.mean() < 0.02
 
 
-def test_a_constant_r_gives_a_smaller_error(bench):
-    assert rms_error(bench, 0.0)[0] < rms_error(bench, RISE)[0]
+def test_the_position_std_covers_the_error(bench, rising):
+    """The reported one-sigma: resting, 3 sigma covers all but a few samples (the landings); in flight 95 % (the
+    mechanics identified within 2 % and the landings make it optimistic by 1.5-2.8x there)."""
+    recording, _ = rising
+    estimate, _ = observed(bench, recording)
+    x = recording.signals['position']
+    outside = np.abs(estimate.position - x) > 3 * estimate.position_std
+    flight = (x > STOPS[0]) & (x < STOPS[1])
+    assert outside[~flight].mean() < 0.005 and outside[flight].mean() < 0.07
+    assert np.all(np.isfinite(estimate.position_std)) and np.all(estimate.position_std > 0)
 
 
-def test_online_frame_by_frame_and_after_lost_samples(bench):
+@pytest.mark.parametrize('seed', [34, 35, 36, 37])
+def test_other_records_and_a_constant_r_within_two_percent(bench, seed):
+    """Other records, R rising and constant (0.47-0.74 % measured, causal 0.64-1.00 %)."""
+    for rise in (0.0, RISE):
+        recording, _ = record(duration=SECONDS, rate=RATE, seed=seed, resistance_rise=rise)
+        assert observed(bench, recording)[1] < 0.02
+        assert observed(bench, recording, smooth=False)[1] < 0.02
+
+
+def test_online_frame_by_frame_and_after_lost_samples(bench, rising):
     """The causal filter frame by frame (the identifier node's PositionObserver) is observe_position's without the
-    smoother, exactly; after 10 ms of lost samples (gap()) it is back within 4 % of the stroke 0.1 s later (3.0 %
-    measured, as without the gap: it starts from the last position with the whole stroke's flux uncertainty)."""
-    recording, truth = record(duration=SECONDS, rate=RATE, seed=32, resistance_rise=RISE)
+    smoother, exactly; after 10 ms of lost samples (gap()) it is back within 2 % of the stroke 0.1 s later (it
+    starts anywhere on the stroke, its flux from the current, until the current and the mechanics place it)."""
+    recording, final = rising
     u, i, x = (recording.signals[name] for name in ('voltage', 'current', 'position'))
     params, noise = observer_model(bench)
     causal = observe_position(params, recording.sample_period, u, i, current_noise=noise, smooth=False)
@@ -68,8 +89,8 @@ def test_online_frame_by_frame_and_after_lost_samples(bench):
     observer.update(u[:half], i[:half])
     observer.gap()
     after, _ = observer.update(u[half + lost:], i[half + lost:])
-    assert np.sqrt(np.mean((after[settle:] - x[half + lost + settle:]) ** 2)) < 0.04 * STROKE
-    assert observer.resistance == pytest.approx(truth['resistance'] * (1 + RISE), rel=2e-3)
+    assert np.sqrt(np.mean((after[settle:] - x[half + lost + settle:]) ** 2)) < 0.02 * STROKE
+    assert observer.resistance == pytest.approx(final, rel=1e-3)
     with pytest.raises(InputError, match='finite voltage and current of one length'):
         observer.update(u[:3], np.r_[i[:2], np.nan])
 
@@ -101,7 +122,7 @@ def test_the_cli_writes_the_position_and_refuses_bad_input_in_one_line(bench, tm
                  '--position-out', str(out)]) == 0
     assert json.loads(capsys.readouterr().out)['samples'] == len(recording)
     lines = out.read_text().splitlines()
-    assert lines[0] == 't,position_estimate,resistance_estimate,held' and len(lines) == len(recording) + 1
+    assert lines[0] == 't,position_estimate,position_std,resistance_estimate,held' and len(lines) == len(recording) + 1
     position = np.array([float(line.split(',')[1]) for line in lines[1:]])
     assert np.all((position >= STOPS[0]) & (position <= STOPS[1]))
     one_line_error(capsys, ['identify', str(data), '--actuator', 'solenoid', '--observer-from', str(data),

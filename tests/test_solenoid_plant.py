@@ -56,3 +56,33 @@ def test_the_recording_moves_the_armature_across_its_stroke_at_a_bias_current():
     assert np.mean(x >= 1.2e-3) > 0.2 and np.mean(x <= 0.0) > 0.05 and np.mean((x > 0) & (x < 1.2e-3)) > 0.2
     assert 0.9 < np.median(i) < 3.0 and i.max() < 3.1
     assert rec.truth(['resistance', 'gap'])['gap'] == 1.5e-3
+
+
+def test_the_observers_armature_step_follows_scipy_and_its_tangent():
+    """physics.solenoid.armature_step (the position observer's mechanics, 10 RK4 steps a sample there): a free
+    flight at a current ramp and its Jacobian against scipy's DOP853 on m dv/dt = I^2 L'(x) / 2 - B v - k x - F0
+    (the Jacobian by central differences of scipy's solutions); an armature pressed on a stop stays, one that
+    reaches a stop lands on it at rest."""
+    from scipy.integrate import solve_ivp
+
+    from emla_core.physics.solenoid import armature_step
+    p = SolenoidParameters()
+    kernel, ts = p.kernel_vector(), 2e-4
+
+    def exact(start):
+        def rates(t, y):
+            i = 1.8 + (2.0 - 1.8) * t / ts
+            return [y[1], (p.coil_force(y[0], i) - p.damping * y[1] - p.load(y[0])) / p.mass]
+        return solve_ivp(rates, (0.0, ts), start, method='DOP853', rtol=1e-13, atol=1e-16).y[:, -1]
+    start = np.array([0.5e-3, 0.05])
+    x, v, jacobian, stop = armature_step(*start, 1.8, 2.0, ts, 10, kernel)
+    assert stop == -1
+    np.testing.assert_allclose([x, v], exact(start), rtol=1e-9)
+    for column, delta in ((0, 1e-8), (1, 1e-5)):
+        step = np.eye(2)[column] * delta
+        np.testing.assert_allclose(jacobian[:, column], (exact(start + step) - exact(start - step)) / (2 * delta),
+                                   rtol=1e-6, atol=1e-9)
+    assert armature_step(p.stroke_min, 0.0, 0.2, 0.2, ts, 10, kernel)[3] == 0              # the spring holds it
+    assert armature_step(p.stroke_max, 0.0, 3.0, 3.0, ts, 10, kernel)[3] == 1              # the coil holds it
+    x, v, jacobian, stop = armature_step(p.stroke_max - 1e-6, 0.5, 3.0, 3.0, ts, 10, kernel)
+    assert (x, v, stop) == (p.stroke_max, 0.0, 1) and not jacobian.any()

@@ -179,6 +179,8 @@ def _observer(args):
     from its coil (emla_identification.solenoid_observer); a summary JSON."""
     import json
 
+    import numpy as np
+
     from emla_identification.solenoid_observer import observe_position, observer_model
     _solenoid_only(args)
     check_outputs({'--json': args.json, '--position-out': args.position_out}, [args.data, args.observer_from],
@@ -195,7 +197,9 @@ def _observer(args):
                                 recording.signals['current'], current_noise=noise)
     data = {'model': 'solenoid', 'observer_from': str(args.observer_from), 'samples': len(recording),
             'sample_period': recording.sample_period, 'held': int(estimate.held.sum()),
-            'resistance': {'start': float(estimate.resistance[0]), 'end': float(estimate.resistance[-1])},
+            'resistance': {'start': float(estimate.resistance[0]), 'end': float(estimate.resistance[-1]),
+                           'end_std': float(estimate.resistance_std[-1])},
+            'position_std_median': float(np.median(estimate.position_std)),
             'warnings': lost, **understood(recording, 'identify')}
     emit_json(data, args.json, [(args.position_out, lambda temporary: estimate.write_csv(recording.time,
                                                                                           temporary))])

@@ -234,6 +234,42 @@ def _rates(i, x, v, u, p, h):
 
 
 @numba.njit(cache=True)
+def armature_step(x, v, i0, i1, dt, steps, p):
+    """(x, v, J, stop) after dt of the armature's mechanics alone, the coil's current going linearly from i0 to
+    i1 (A), in `steps` RK4 steps of _rates' acceleration (the friction and the stops' hold included); J the 2x2
+    d(x, v)/d(x0, v0), by central differences of the whole step. An armature that reaches a stop or rests on one
+    ends there at rest, J zero, `stop` 0 (x_min) or 1 (x_max); -1 in flight."""
+    x1, v1, stop = _flight(x, v, i0, i1, dt, steps, p)
+    jacobian = np.zeros((2, 2))
+    if stop < 0:
+        for column in range(2):
+            dx, dv = (1e-9 * (p[_XMAX] - p[_XMIN]), 0.0) if column == 0 else (0.0, 1e-6)
+            up = _flight(x + dx, v + dv, i0, i1, dt, steps, p)
+            down = _flight(x - dx, v - dv, i0, i1, dt, steps, p)
+            d = dx + dv
+            jacobian[0, column], jacobian[1, column] = (up[0] - down[0]) / (2 * d), (up[1] - down[1]) / (2 * d)
+    return x1, v1, jacobian, stop
+
+
+@numba.njit(cache=True)
+def _flight(x, v, i0, i1, dt, steps, p):
+    """(x, v, stop) of armature_step, without the Jacobian: RK4 on (x, v), a stop reached or held ending it."""
+    h = dt / steps
+    for k in range(steps):
+        slope = (i1 - i0) / steps
+        i_start, i_middle, i_end = i0 + slope * k, i0 + slope * (k + 0.5), i0 + slope * (k + 1.0)
+        a0 = _rates(i_start, x, v, 0.0, p, h)[2]
+        a1 = _rates(i_middle, x + 0.5 * h * v, v + 0.5 * h * a0, 0.0, p, h)[2]
+        a2 = _rates(i_middle, x + 0.5 * h * (v + 0.5 * h * a0), v + 0.5 * h * a1, 0.0, p, h)[2]
+        a3 = _rates(i_end, x + h * (v + 0.5 * h * a1), v + h * a2, 0.0, p, h)[2]
+        x += h * (v + h / 6.0 * (a0 + a1 + a2))
+        v += h / 6.0 * (a0 + 2.0 * (a1 + a2) + a3)
+        if x <= p[_XMIN] or x >= p[_XMAX]:
+            return min(max(x, p[_XMIN]), p[_XMAX]), 0.0, 0 if x <= p[_XMIN] else 1
+    return x, v, -1
+
+
+@numba.njit(cache=True)
 def _rk4(i, x, v, u, p, h):
     """One classical RK4 step of h."""
     a0, a1, a2 = _rates(i, x, v, u, p, h)

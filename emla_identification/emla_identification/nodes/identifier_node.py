@@ -57,8 +57,9 @@ SPECS = [
                                     'voltage balance with the inductance curve of `model_file` (a solenoid\'s, '
                                     'emla identify --actuator solenoid --model-out), on /emla/effects'),
     Spec('position_observer', False, 'actuator solenoid without a position sensor: the armature\'s position '
-                                     'estimated from the coil\'s voltage and current alone (its flux linkage, R '
-                                     'tracked at the end stops), on /emla/position_estimate; needs current_noise'),
+                                     'estimated from the coil\'s voltage and current alone (a Kalman filter on its '
+                                     'flux linkage, the mechanics and R), on /emla/position_estimate; needs '
+                                     'current_noise and a model_file with the mechanics'),
     Spec('online_model', False, 'actuator solenoid: identify the whole model (R, L0, a, g0, m, B, k, F0) from the '
                                 'voltage, current and position over the latest window_time, refitted every '
                                 'refit_period, on /emla/effects (no model_file needed)'),
