@@ -21,6 +21,10 @@ I = psi / L(x) + that; the force stays psi^2 L'(x) / (2 L(x)^2) (the iron's ener
 Residual magnetism (`params` remanence_current I_r, remanence_flux psi_h): the iron's remanence takes
 I_r tanh(psi / psi_h) off the current (not the suite's constant I_r: it fades below psi_h, so an unmagnetised
 circuit carries no flux), the force again psi^2 L'(x) / (2 L(x)^2).
+Eddy currents (`params` eddy_conductance G, eddy_time tau_e): a branch across the magnetic circuit whose current
+i_e lags G dpsi/dt by tau_e, tau_e di_e/dt = G dpsi/dt - i_e (a shorted turn with its own leakage, not the suite's
+i_e = G dpsi/dt), so I = psi / L(x) + iron + i_e, carried as a state; tau_e = 0 is the suite's form, the current
+then sampled just before the voltage steps. The force stays psi^2 L'(x) / (2 L(x)^2).
 
     rec, truth = record(rate=1000.0, seed=3)     # truth: {name: value} of the parameters
 """
@@ -34,10 +38,11 @@ TRUTH = {'resistance': 6.0, 'leakage_inductance': 5e-3, 'gap_coefficient': 2e-6,
 STOPS = (0.0, 1.2e-3)                      # m
 BANDS = ((1.0, 1.45), (1.45, 3.0), (0.0, 0.5))   # A
 HOLD = (3e-3, 15e-3)                       # s
-RTOL, ATOL = 1e-11, (1e-14, 1e-13, 1e-11)  # psi in V s, x in m, v in m/s
+RTOL, ATOL = 1e-11, (1e-14, 1e-13, 1e-11, 1e-11)  # psi in V s, x in m, v in m/s, i_e in A
 EDGE = 1e-15                               # m
 STUCK = 1e-9                               # s: a mode change sooner than this after the last is a balance
 FRICTION_SPEED = 5e-3                      # m/s: v_s of the armature's friction Fc tanh(v / v_s), if any
+EDDY_TIME = 2e-5                           # s: tau_e of the eddy currents' branch, if any
 
 
 def _model(p):
@@ -47,6 +52,8 @@ def _model(p):
     def inductance(x):
         return l0 + a / (g0 - x)
 
+    ge, te = p.get('eddy_conductance', 0.0), p.get('eddy_time', EDDY_TIME)
+
     def current(psi, x):
         return psi / inductance(x) + iron(psi, p)
 
@@ -54,12 +61,20 @@ def _model(p):
         i = psi / inductance(x)
         return 0.5 * i * i * a / (g0 - x) ** 2 - b * v - k * x - f0 - fc * np.tanh(v / vs)
 
+    def coil(psi, x, ie, u):
+        """(dpsi/dt, di_e/dt): the eddy branch lagging (te > 0) or, te = 0, taking G dpsi/dt at once."""
+        if ge and te:
+            rate = u - r * (current(psi, x) + ie)
+            return rate, (ge * rate - ie) / te
+        return (u - r * current(psi, x)) / (1.0 + r * ge), 0.0
+
     def free(t, y, u):
-        psi, x, v = y
-        return [u - r * current(psi, x), v, net_force(psi, x, v) / m]
+        psi, x, v, ie = y
+        rate, eddy = coil(psi, x, ie, u)
+        return [rate, v, net_force(psi, x, v) / m, eddy]
 
     def held(t, y, u, x):
-        return [u - r * current(y[0], x)]
+        return list(coil(y[0], x, y[1], u))
     return free, held, net_force
 
 
@@ -75,21 +90,23 @@ def iron(psi, p):
 
 
 def _interval(state, u, ts, p):
-    """(psi, x, v, on_stop) after one interval at voltage u, from state (psi, x, v, on_stop)."""
+    """(psi, x, v, on_stop, i_e) after one interval at voltage u, from state (psi, x, v, on_stop, i_e)."""
     free, held, net_force = _model(p)
     low, high = STOPS
-    t, (psi, x, v, on_stop) = 0.0, state
+    t, (psi, x, v, on_stop, ie) = 0.0, state
     while t < ts * (1 - 1e-12):
         if on_stop:
             def release(t, y, u, x=x):
                 return net_force(y[0], x, 0.0)
             release.terminal, release.direction = True, (1 if x <= low else -1)
-            sol = solve_ivp(held, (t, ts), [psi], 'DOP853', args=(u, x), events=release, rtol=RTOL, atol=ATOL[0])
+            sol = solve_ivp(held, (t, ts), [psi, ie], 'DOP853', args=(u, x), events=release, rtol=RTOL,
+                            atol=(ATOL[0], ATOL[3]))
             if sol.status == 1 and sol.t[-1] - t < STUCK:   # the force balanced on the stop: held a moment longer
-                sol = solve_ivp(held, (t, min(t + STUCK, ts)), [psi], 'DOP853', args=(u, x), rtol=RTOL, atol=ATOL[0])
-                t, psi = sol.t[-1], sol.y[0, -1]
+                sol = solve_ivp(held, (t, min(t + STUCK, ts)), [psi, ie], 'DOP853', args=(u, x), rtol=RTOL,
+                                atol=(ATOL[0], ATOL[3]))
+                t, (psi, ie) = sol.t[-1], sol.y[:, -1]
                 continue
-            t, psi, v, on_stop = sol.t[-1], sol.y[0, -1], 0.0, sol.status != 1
+            t, (psi, ie), v, on_stop = sol.t[-1], sol.y[:, -1], 0.0, sol.status != 1
             continue
 
         def hit_low(t, y, u):   # (just beyond the stops: an armature leaving one does not hit it at once)
@@ -99,13 +116,13 @@ def _interval(state, u, ts, p):
             return y[1] - high - EDGE
         hit_low.terminal, hit_low.direction = True, -1
         hit_high.terminal, hit_high.direction = True, 1
-        sol = solve_ivp(free, (t, ts), [psi, x, v], 'DOP853', args=(u,), events=(hit_low, hit_high), rtol=RTOL,
+        sol = solve_ivp(free, (t, ts), [psi, x, v, ie], 'DOP853', args=(u,), events=(hit_low, hit_high), rtol=RTOL,
                         atol=ATOL)
-        t, (psi, x, v) = sol.t[-1], sol.y[:, -1]
+        t, (psi, x, v, ie) = sol.t[-1], sol.y[:, -1]
         if sol.status == 1:   # a stop reached: put on it, at rest, held there while the force presses it on
             x, v = (low if x < 0.5 * (low + high) else high), 0.0
             on_stop = (net_force(psi, x, 0.0) <= 0.0) if x == low else (net_force(psi, x, 0.0) >= 0.0)
-    return psi, x, v, on_stop
+    return psi, x, v, on_stop, ie
 
 
 def voltage(duration, rate, rng, resistance):
@@ -129,12 +146,19 @@ def record(duration=2.0, rate=1000.0, seed=0, params=None, current_noise=5e-3, c
     ts = 1.0 / rate
     u = voltage(duration, rate, rng, p['resistance'])
     n = len(u)
-    psi, x, state = np.empty(n), np.empty(n), (0.0, STOPS[0], 0.0, True)
+    psi, x, eddy, state = np.empty(n), np.empty(n), np.empty(n), (0.0, STOPS[0], 0.0, True, 0.0)
     for k in range(n):
-        psi[k], x[k] = state[0], state[1]
+        psi[k], x[k], eddy[k] = state[0], state[1], state[4]
         rise = 1.0 + resistance_rise * (k + 0.5) / n
         state = _interval(state, u[k], ts, dict(p, resistance=p['resistance'] * rise) if resistance_rise else p)
     current = psi / (p['leakage_inductance'] + p['gap_coefficient'] / (p['gap'] - x)) + iron(psi, p)
+    ge = p.get('eddy_conductance', 0.0)
+    if ge and not p.get('eddy_time', EDDY_TIME):   # G dpsi/dt with the voltage and R of the interval ending at t_k
+        before = np.r_[0.0, u[:-1]]
+        r = p['resistance'] * (1.0 + resistance_rise * np.maximum(np.arange(n) - 0.5, 0.0) / n)
+        current = current + ge * (before - r * current) / (1.0 + r * ge)
+    else:
+        current = current + eddy
     current = current + current_noise * rng.standard_normal(n)
     if current_step:
         current = np.round(current / current_step) * current_step

@@ -84,7 +84,7 @@ def test_the_moving_coils_commands_refuse_a_solenoids_model(valve, capsys, tmp_p
     (lambda d: d['parameters'].pop('gap'), 'needs gap'),
     (lambda d: d['parameters']['gap'].update(value=1e-4), 'stroke_max < gap'),
     (lambda d: d.update(effects=[{'effect': 'coulomb_friction', 'parameters': {'coulomb_force': 1.0}}]),
-     "a solenoid's effects are friction, iron_saturation, residual_magnetism, not coulomb_friction"),
+     "a solenoid's effects are friction, iron_saturation, residual_magnetism, eddy_currents, not coulomb_friction"),
     (lambda d: d.update(effects=[{'effect': 'friction', 'parameters': {'coulomb_force': 1.0},
                                   'settings': {'presliding_displacement': 1e-6}}]),
      'takes the settings friction_speed'),

@@ -31,6 +31,20 @@ def test_a_smooth_friction_of_the_armature_follows_the_independent_solution():
     assert np.max(np.abs(dry['position'] - x)) > 1e-6   # the dry, sticking form is another plant
 
 
+def test_eddy_currents_follow_the_independent_solution():
+    """eddy_conductance G: I = psi / L(x) + G dpsi/dt, the current sampled before the voltage steps; the generator's
+    own form with tau_e = 0 (its lagging branch is the discrepancy tests')."""
+    eddy = {'eddy_conductance': 0.02, 'eddy_time': 0.0}
+    rec, truth = independent_record(duration=0.5, rate=5000.0, params=eddy, current_noise=0.0, current_step=0.0,
+                                    resolution=0.0)
+    params = SolenoidParameters(**{k: v for k, v in truth.items() if k != 'eddy_time'})
+    out = SolenoidPlant(params).run(rec.signals['voltage'], 2e-4, sampling='start')
+    plain = SolenoidPlant(params.replace(eddy_conductance=0.0)).run(rec.signals['voltage'], 2e-4, sampling='start')
+    assert np.max(np.abs(out['current'] - rec.signals['current'])) < 2e-4
+    assert np.max(np.abs(out['position'] - rec.signals['position'])) < 5e-8
+    assert np.max(np.abs(plain['current'] - rec.signals['current'])) > 0.05   # G dpsi/dt: up to 0.1 A here
+
+
 def test_the_magnetic_circuit_and_its_force():
     p = SolenoidParameters()
     x, i = 0.6e-3, 2.0

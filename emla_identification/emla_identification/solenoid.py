@@ -63,7 +63,7 @@ from .noise_floor import low_band
 
 ELECTRICAL = SOLENOID_PARAMETER_NAMES[:4]   # resistance, leakage_inductance, gap_coefficient, gap
 # The electrical vector the fit works on: those, then the effects in the flux linkage (zero unless fitted).
-ELECTRICAL_FIELDS = ELECTRICAL + ('saturation_coefficient', 'remanence_current')
+ELECTRICAL_FIELDS = ELECTRICAL + ('saturation_coefficient', 'remanence_current', 'eddy_conductance')
 MECHANICAL = SOLENOID_PARAMETER_NAMES[4:]   # mass, damping, spring_stiffness, spring_preload
 SUBSTEP = 2e-5        # s: the longest RK4 sub-step of the flux linkage (an even number of them per sample)
 SETTLE = 10           # coil time constants at the start of the record left out of the current's fit
@@ -76,7 +76,7 @@ STOP_SHARE = 0.01     # of the stroke: the least clearance from a stop of a forc
 RELIABLE = 0.1        # of the current's noise: the largest error a sample's predicted current may take from the path
 HINT_SAMPLES = 10000  # samples a moving coil's misfit record is tried as a solenoid on (a second at 10 kHz: ~2 s)
 PASSES = 3            # electrical and mechanical fits in turn (the first on a spline path between the samples)
-_SATURATION, _REMANENCE = (KERNEL_SLOTS.index(name) for name in ELECTRICAL_FIELDS[4:])
+_SATURATION, _REMANENCE, _EDDY = (KERNEL_SLOTS.index(name) for name in ELECTRICAL_FIELDS[4:])
 FRICTION_SPEEDS = np.concatenate(([0.0], np.geomspace(1e-3, 0.3, 12)))   # v_s tried, times the path's peak speed
 
 
@@ -140,7 +140,7 @@ class SolenoidResult:
 def identify_solenoid(data: Recording | Path | str | None = None, *, sample_period: float | None = None,
                       voltage: ArrayLike | None = None, current: ArrayLike | None = None,
                       position: ArrayLike | None = None, friction: bool = False, saturation: bool = False,
-                      remanence: bool = False) -> SolenoidResult:
+                      remanence: bool = False, eddy: bool = False) -> SolenoidResult:
     """Identify a solenoid's R, L0, a, g0, m, B, k, F0 from a whole record of its voltage, current and position.
 
     Parameters
@@ -164,6 +164,9 @@ def identify_solenoid(data: Recording | Path | str | None = None, *, sample_peri
     remanence : bool, optional
         Add the iron's residual magnetism, I = psi / L(x) (+ c psi^3) - I_r (`remanence_current` I_r in A, >= 0;
         it enters the back-EMF and the force through M = psi / L(x) = I + I_r without saturation).
+    eddy : bool, optional
+        Add the iron's eddy currents, I = psi / L(x) (+ c psi^3 - I_r) + G dpsi/dt (`eddy_conductance` G in S,
+        >= 0; the current sampled just before the voltage steps, so with the voltage of the interval ending there).
 
     Returns
     -------
@@ -198,7 +201,7 @@ def identify_solenoid(data: Recording | Path | str | None = None, *, sample_peri
     if not np.ptp(x) > 0:
         raise InputError(f'{source}: the position never changes: the solenoid\'s inductance curve and mechanics '
                          f'need the armature to move')
-    return _identify(u, i, x, ts, source, friction, saturation, remanence)
+    return _identify(u, i, x, ts, source, friction, saturation, remanence, eddy)
 
 
 def solenoid_hint(recording: Recording) -> str | None:
@@ -220,11 +223,11 @@ def solenoid_hint(recording: Recording) -> str | None:
             f'({1e3 * p["gap"]:.3g} mm - x), force I^2 L\'(x)/2): identify it with --actuator solenoid')
 
 
-def _identify(u, i, x, ts, source, friction=False, saturation=False, remanence=False):
+def _identify(u, i, x, ts, source, friction=False, saturation=False, remanence=False, eddy=False):
     substeps = 2 * max(1, math.ceil(ts / SUBSTEP / 2))
     stopped = on_stop(x)
-    electrical = np.append(_start(u, i, x, ts), (0.0, 0.0))   # ELECTRICAL_FIELDS: the effects from zero
-    free = np.array([True] * 4 + [saturation, remanence])      # which of them are fitted
+    electrical = np.append(_start(u, i, x, ts), (0.0, 0.0, 0.0))   # ELECTRICAL_FIELDS: the effects from zero
+    free = np.array([True] * 4 + [saturation, remanence, eddy])      # which of them are fitted
     mechanical, speed = None, None   # the first pass: the armature's path a spline through the samples
     for _ in range(PASSES):
         nodes, error = _nodes(u, i, x, stopped, electrical, mechanical, speed, ts, substeps)
@@ -272,12 +275,13 @@ def _electrical(u, i, nodes, start, free, ts, substeps, keep, x, source):
     """(The ELECTRICAL_FIELDS vector with the `free` ones fitted, the Jacobian of the current's residual by those and
     that residual at the samples `keep`): the output-error fit from `start`, the armature moved along `nodes`. The
     effects are scaled by the largest current: c by it over the cube of the largest flux linkage without them (c
-    psi^3 a share of I), I_r by it."""
+    psi^3 a share of I), I_r by it, G by it over the largest voltage."""
     peak = np.max(np.abs(i))
     scale = np.abs(start)
-    scale[4:] = np.maximum(scale[4:], (peak / np.max(np.abs(inductance(x, *start[1:4]) * i)) ** 3, peak))
+    scale[4:] = np.maximum(scale[4:], (peak / np.max(np.abs(inductance(x, *start[1:4]) * i)) ** 3, peak,
+                                       peak / max(np.max(np.abs(u)), 1e-12)))
     scale = scale[free]
-    low = np.array([1e-6, 0.0, 1e-6, (x.max() - x.min()) * 1e-3 + x.max(), 0.0, 0.0])[free] / scale
+    low = np.array([1e-6, 0.0, 1e-6, (x.max() - x.min()) * 1e-3 + x.max(), 0.0, 0.0, 0.0])[free] / scale
 
     def full(q):
         values = start.copy()
@@ -297,7 +301,7 @@ def _electrical(u, i, nodes, start, free, ts, substeps, keep, x, source):
 def _settling(electrical, x, ts, n):
     """Samples at the start that remember the initial flux linkage: SETTLE coil time constants (at most n / 4)."""
     r, l0, a, g0 = electrical[:4]
-    return min(n // 4, int(SETTLE * (l0 + a / (g0 - x.min())) / r / ts))
+    return min(n // 4, int(SETTLE * (l0 + a / (g0 - x.min())) * (1 + r * electrical[6]) / r / ts))
 
 
 def _spline_error(x, stopped):
@@ -367,32 +371,38 @@ def _spline_nodes(x, stopped, substeps):
 
 @numba.njit(cache=True)
 def _coil_current(psi, x, l0, a, g0, c, remanence):
-    """I = psi / L(x) + c psi^3 - I_r."""
+    """M_c = psi / L(x) + c psi^3 - I_r: the coil's current without eddy currents."""
     return psi / inductance(x, l0, a, g0) + c * psi * psi * psi - remanence
 
 
 @numba.njit(cache=True)
-def _driven(u, i0, nodes, r, l0, a, g0, c, remanence, ts, substeps):
+def _driven(u, i0, nodes, r, l0, a, g0, c, remanence, eddy, ts, substeps):
     """(The current at the samples, (n,); the magnetizing current psi / L(x) at the sub-step boundaries of each
     interval, (n - 1, substeps + 1)), the armature moved along `nodes` (positions at the half sub-steps): RK4 of
-    dpsi/dt = u - R I(psi, x(t)), I = psi / L(x) + c psi^3 - I_r."""
+    dpsi/dt = u - R I(psi, x(t)), I = M_c + G dpsi/dt with M_c = psi / L(x) + c psi^3 - I_r, so dpsi/dt =
+    (u - R M_c) / (1 + R G); the current at a sample with the voltage of the interval ending there (the first's
+    with its own)."""
     n = nodes.shape[0]
     current = np.empty(n + 1)
     magnetizing = np.empty((n, substeps + 1))
     h = ts / substeps
-    psi = flux(i0 + remanence, inductance(nodes[0, 0], l0, a, g0), c)
+    scale = 1.0 / (1.0 + r * eddy)
+    circuit = i0 / scale - eddy * u[0]
+    psi = flux(circuit + remanence, inductance(nodes[0, 0], l0, a, g0), c)
     for k in range(n):
         magnetizing[k, 0] = psi / inductance(nodes[k, 0], l0, a, g0)
-        current[k] = magnetizing[k, 0] + c * psi * psi * psi - remanence
+        circuit = magnetizing[k, 0] + c * psi * psi * psi - remanence
+        current[k] = (circuit + eddy * u[max(k - 1, 0)]) * scale
         for s in range(substeps):
             x0, xm, x1 = nodes[k, 2 * s], nodes[k, 2 * s + 1], nodes[k, 2 * s + 2]
-            k1 = u[k] - r * _coil_current(psi, x0, l0, a, g0, c, remanence)
-            k2 = u[k] - r * _coil_current(psi + 0.5 * h * k1, xm, l0, a, g0, c, remanence)
-            k3 = u[k] - r * _coil_current(psi + 0.5 * h * k2, xm, l0, a, g0, c, remanence)
-            k4 = u[k] - r * _coil_current(psi + h * k3, x1, l0, a, g0, c, remanence)
+            k1 = (u[k] - r * _coil_current(psi, x0, l0, a, g0, c, remanence)) * scale
+            k2 = (u[k] - r * _coil_current(psi + 0.5 * h * k1, xm, l0, a, g0, c, remanence)) * scale
+            k3 = (u[k] - r * _coil_current(psi + 0.5 * h * k2, xm, l0, a, g0, c, remanence)) * scale
+            k4 = (u[k] - r * _coil_current(psi + h * k3, x1, l0, a, g0, c, remanence)) * scale
             psi += h / 6.0 * (k1 + 2.0 * (k2 + k3) + k4)
             magnetizing[k, s + 1] = psi / inductance(x1, l0, a, g0)
-    current[n] = magnetizing[n - 1, substeps] + c * psi * psi * psi - remanence
+    circuit = magnetizing[n - 1, substeps] + c * psi * psi * psi - remanence
+    current[n] = (circuit + eddy * u[n - 1]) * scale
     return current, magnetizing
 
 

@@ -10,7 +10,9 @@ candidate (CANDIDATES) is identify_solenoid with one effect added, tried on ever
 - iron saturation, I = psi / L(x) + c psi^3 (its `saturation`), judged on the electrical equation: a weak one
   hides in the inductance curve and biases the mechanics through the force;
 - residual magnetism, I = psi / L(x) - I_r (its `remanence`), judged on the force balance, where it shows most
-  (the force goes with (I + I_r)^2; the voltage only through the back-EMF I_r L'(x) v).
+  (the force goes with (I + I_r)^2; the voltage only through the back-EMF I_r L'(x) v);
+- eddy currents, I = psi / L(x) + G dpsi/dt (its `eddy`), judged on the electrical equation: the current jumps
+  with the voltage and the flux lags it.
 A candidate qualifies when it is significant, its strength at least MIN_T of its sigmas above zero (a friction
 opposes the motion, the iron's saturation raises the current, its remanence lowers it), and either the nominal model
 fitted its equation or it removes at least MIN_SHARE of that equation's excess over its noise floor. The ones that
@@ -18,7 +20,7 @@ qualify are then fitted together, and the least significant of those under MIN_T
 none is (an effect can stand in for another: a remanence for a saturation, 22 sigma alone and 0 with it); the rest
 are named and the verdict is `explained` if both equations fit with them, else `unexplained` with them named (and
 with none named, located on the signals the residual depends on). The gap is the NRMSE of each signal's free run
-under the measured voltage (solenoid_predict.py), before and after. Not in the library: eddy currents.
+under the measured voltage (solenoid_predict.py), before and after. Not in the library: the iron's hysteresis.
 """
 from dataclasses import dataclass
 
@@ -47,7 +49,8 @@ class Candidate:
 
 CANDIDATES = (Candidate('friction', 'friction', 'coulomb_force', 'N', 'mechanical'),
               Candidate('iron_saturation', 'saturation', 'saturation_coefficient', 'A/Wb^3', 'electrical'),
-              Candidate('residual_magnetism', 'remanence', 'remanence_current', 'A', 'mechanical'))
+              Candidate('residual_magnetism', 'remanence', 'remanence_current', 'A', 'mechanical'),
+              Candidate('eddy_currents', 'eddy', 'eddy_conductance', 'S', 'electrical'))
 
 
 @dataclass

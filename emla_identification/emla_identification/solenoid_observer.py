@@ -16,7 +16,8 @@ of the physics layer when the model has them), psi the flux linkage. An extended
   by dR I per second, so R must be known to about 0.01 % over a 10 ms flight: the rests on the stops, where x is
   known, measure it.
 
-Each sample's current is the measurement, I = psi / L(x) with the current's noise: where the armature rests it
+Each sample's current is the measurement, I = psi / L(x) (with the eddy currents' G dpsi/dt when the model has
+them) with the current's noise: where the armature rests it
 corrects psi and R, in flight psi and x together, the mechanics weighing how far the noisy current may move x
 (at the open stop, where L(x) is flattest, one sample's noise is about 25 um). Offline (`smooth`), a
 Rauch-Tung-Striebel smoother takes the state back over each flight, which then sees where it ended; it does not
@@ -231,12 +232,16 @@ class PositionObserver(ResistanceEstimate):
         else:
             transition, reset = self._predict(current)
         ahead, ahead_cov = self.state.copy(), self.cov.copy()
-        # the measurement I = h(psi, x): the physics layer's current at the flux linkage and position
+        # the measurement I = h(psi, x): the circuit's current at the flux linkage and position, and the eddy
+        # currents' G dpsi/dt with the voltage of the interval ending here (physics.solenoid.coil_current)
         psi, x = self.state[0], self.state[1]
         inductance, slope = p.inductance(x), p.inductance_slope(x)
-        h = np.array([1.0 / inductance + 3.0 * p.saturation_coefficient * psi * psi, -psi * slope / inductance ** 2,
-                      0.0, 0.0, 0.0])
-        predicted = psi / inductance + p.saturation_coefficient * psi ** 3 - p.remanence_current
+        scale = 1.0 / (1.0 + self.state[3] * p.eddy_conductance)
+        h = scale * np.array([1.0 / inductance + 3.0 * p.saturation_coefficient * psi * psi,
+                              -psi * slope / inductance ** 2, 0.0, 0.0, 0.0])
+        before = self._previous[0] if self._previous else voltage
+        predicted = scale * (psi / inductance + p.saturation_coefficient * psi ** 3 - p.remanence_current
+                             + p.eddy_conductance * before)
         gain = self.cov @ h / (h @ self.cov @ h + noise * noise)
         self.state = self.state + gain * (current - predicted)
         self.cov = self.cov - np.outer(gain, h @ self.cov)

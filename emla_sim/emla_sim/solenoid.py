@@ -14,7 +14,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from emla_core.physics.solenoid import SolenoidParameters, solenoid_sequence
+from emla_core.physics.solenoid import SolenoidParameters, coil_current, solenoid_sequence
 from emla_core.recording import Recording
 
 from .plant import MAX_SUBSTEP
@@ -28,7 +28,8 @@ LEVELS = ((1.0, 1.45), (1.45, 3.0), (0.0, 0.5))
 
 
 class SolenoidPlant:
-    """A solenoid from rest at `initial_state` = (I, x, v) (default: no current, armature on its lower stop).
+    """A solenoid from rest at `initial_state` = (I, x, v) (default: no current, armature on its lower stop; a
+    current there as if held by the voltage R I).
 
     Parameters
     ----------
@@ -48,12 +49,14 @@ class SolenoidPlant:
             raise ValueError(f'initial_state is (current, position, velocity), got {state!r}')
         if substeps is not None and not (isinstance(substeps, int) and substeps >= 1):
             raise ValueError(f'substeps must be a positive integer or None, got {substeps!r}')
-        self._state = np.array(state, dtype=float)
+        self._state = np.array(state, dtype=float)   # (M_c, x, v): the circuit's current (I at rest, or without
+        self._voltage = self.params.resistance * state[0]   # eddy currents) and the voltage held last
         self._substeps = substeps
         self._kernel = self.params.kernel_vector()
         self.time = 0.0
 
-    current = property(lambda self: float(self._state[0]), doc='Coil current I (A).')
+    current = property(lambda self: float(coil_current(self._state[0], self._voltage, self._kernel)),
+                       doc='Coil current I (A).')
     position = property(lambda self: float(self._state[1]), doc='Armature position x (m).')
     velocity = property(lambda self: float(self._state[2]), doc='Armature velocity v (m/s).')
 
@@ -61,7 +64,8 @@ class SolenoidPlant:
         """Hold `voltage` (clipped to +-supply_voltage) over dt (s): one interval of the lockstep loop."""
         u = np.array([min(max(float(voltage), -self.params.supply_voltage), self.params.supply_voltage)])
         substeps = self._substeps or max(1, math.ceil(dt / MAX_SUBSTEP - 1e-9))
-        self._state = solenoid_sequence(self._state, u, dt, substeps, self._kernel)[0, :3].copy()
+        self._state = solenoid_sequence(self._state, u, dt, substeps, self._kernel)[0, [4, 1, 2]]
+        self._voltage = float(u[0])
         self.time += dt
 
     def change(self, **values: float) -> None:
@@ -86,13 +90,14 @@ class SolenoidPlant:
             raise ValueError('run needs a 1-D voltage sequence without NaN and dt > 0')
         supply = self.params.supply_voltage
         u = np.clip(u, -supply, supply)
-        i, x, _ = self._state
-        first = np.array([i, x, self._state[2], self.params.coil_force(x, i)])
+        x = self._state[1]
+        first = np.array([self.current, x, self._state[2], self.params.coil_force(x, self._state[0]),
+                          self._state[0]])
         substeps = self._substeps or max(1, math.ceil(dt / MAX_SUBSTEP - 1e-9))
         rows = solenoid_sequence(self._state, u, dt, substeps, self._kernel)
         t0 = self.time
         if u.size:
-            self._state = rows[-1, :3].copy()
+            self._state, self._voltage = rows[-1, [4, 1, 2]], float(u[-1])
         self.time += u.size * dt
         if sampling == 'start':
             rows = np.vstack((first, rows[:-1]))[:u.size]

@@ -16,6 +16,13 @@ With M = psi / L(x) (the current the circuit alone would take), the energy W = p
 gives F = -dW/dx at constant psi = M^2 L'(x) / 2, and l = 1 / (1 / L(x) + 3 c psi^2), e = M L'(x) l / L(x);
 psi from I by Newton's method (`flux`).
 
+Eddy currents (`eddy_conductance` G > 0): the iron's eddy currents as a conductance across the magnetic circuit,
+a branch in parallel with it taking G dpsi/dt, so the coil's current is I = M_c + G dpsi/dt with M_c = psi / L(x)
++ c psi^3 - I_r the circuit's own (the flux lags the current; the force is still M^2 L'(x) / 2). From
+dpsi/dt = u - R I: dpsi/dt = (u - R M_c) / (1 + R G), and the plant integrates M_c with the coil's equation at
+u / (1 + R G) and R / (1 + R G); the current it gives is I = (M_c + G u) / (1 + R G), which jumps with the voltage
+(sampled just before the voltage steps: with the voltage of the interval that ends there).
+
 Residual magnetism (`remanence_current` I_r > 0): the iron's remanent magnetisation as an equivalent current in the
 circuit, I = psi / L(x) + c psi^3 - I_r, so at I = 0 the circuit keeps psi = L(x) I_r and its force (a valve that
 sticks after release). The energy gains -I_r psi, which does not depend on x: F = M^2 L'(x) / 2, l and e as above;
@@ -48,7 +55,8 @@ SOLENOID_UNITS = {'resistance': 'ohm', 'leakage_inductance': 'H', 'gap_coefficie
 # identified: the SolenoidParameters field}, the settings it carries, fields too)}.
 SOLENOID_EFFECTS = {'friction': ({'coulomb_force': 'friction_force'}, ('friction_speed',)),
                     'iron_saturation': ({'saturation_coefficient': 'saturation_coefficient'}, ()),
-                    'residual_magnetism': ({'remanence_current': 'remanence_current'}, ())}
+                    'residual_magnetism': ({'remanence_current': 'remanence_current'}, ()),
+                    'eddy_currents': ({'eddy_conductance': 'eddy_conductance'}, ())}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -86,6 +94,8 @@ class SolenoidParameters:
         c (A / Wb^3, >= 0) of the iron's saturation: I = psi / L(x) + c psi^3; 0: none.
     remanence_current : float
         I_r (A, >= 0), the iron's residual magnetism as an equivalent current: I = psi / L(x) + c psi^3 - I_r; 0: none.
+    eddy_conductance : float
+        G (S = 1/ohm, >= 0) of the iron's eddy currents: I = psi / L(x) + c psi^3 - I_r + G dpsi/dt; 0: none.
 
     Examples
     --------
@@ -109,6 +119,7 @@ class SolenoidParameters:
     friction_speed: float = 0.0
     saturation_coefficient: float = 0.0
     remanence_current: float = 0.0
+    eddy_conductance: float = 0.0
 
     def __post_init__(self):
         for field in dataclasses.fields(self):
@@ -120,7 +131,7 @@ class SolenoidParameters:
             if getattr(self, name) <= 0.0:
                 raise ValueError(f'SolenoidParameters.{name} must be positive, got {getattr(self, name)!r}')
         for name in ('leakage_inductance', 'damping', 'spring_stiffness', 'friction_force', 'friction_speed',
-                     'saturation_coefficient', 'remanence_current'):
+                     'saturation_coefficient', 'remanence_current', 'eddy_conductance'):
             if getattr(self, name) < 0.0:
                 raise ValueError(f'SolenoidParameters.{name} must be >= 0, got {getattr(self, name)!r}')
         if not self.stroke_min < self.stroke_max < self.gap:
@@ -175,8 +186,8 @@ class SolenoidParameters:
 
 KERNEL_SLOTS = ('resistance', 'leakage_inductance', 'gap_coefficient', 'gap', 'mass', 'damping', 'spring_stiffness',
                 'spring_preload', 'stroke_min', 'stroke_max', 'friction_force', 'friction_speed',
-                'saturation_coefficient', 'remanence_current')
-_R, _L0, _A, _G0, _M, _B, _K, _F0, _XMIN, _XMAX, _FC, _VS, _C, _IR = range(len(KERNEL_SLOTS))
+                'saturation_coefficient', 'remanence_current', 'eddy_conductance')
+_R, _L0, _A, _G0, _M, _B, _K, _F0, _XMIN, _XMAX, _FC, _VS, _C, _IR, _GE = range(len(KERNEL_SLOTS))
 NEWTON_STEPS = 8   # of `flux`: from psi = L I, each at least doubles the correct digits once near the root
 
 
@@ -221,13 +232,15 @@ def inductance_slope(x, coefficient, gap):
 
 @numba.njit(cache=True)
 def _rates(i, x, v, u, p, h):
-    """(dI/dt, dx/dt, dv/dt): the coil's l, e, F and the spring's load through coil_rates; at an end stop at rest
+    """(dM_c/dt, dx/dt, dv/dt) at the circuit's current M_c = i (the coil's current without eddy currents): the
+    coil's l, e, F and the spring's load through coil_rates, the voltage and R over 1 + R G; at an end stop at rest
     the armature stays while the net force presses it on."""
     load, dry = p[_F0] + p[_K] * x, p[_FC]
     if p[_VS] > 0.0:   # the smooth friction: a load like the spring's, nothing to stick
         load, dry = load + p[_FC] * np.tanh(v / p[_VS]), 0.0
     incremental, emf, force = coil_terms(i, x, p)
-    di, dv = coil_rates(i, v, u, p[_R], incremental, emf, force, p[_M], p[_B], load, dry, h)
+    scale = 1.0 / (1.0 + p[_R] * p[_GE])   # the share of u - R M_c that drives the flux past the eddy branch
+    di, dv = coil_rates(i, v, u * scale, p[_R] * scale, incremental, emf, force, p[_M], p[_B], load, dry, h)
     if v == 0.0 and ((x >= p[_XMAX] and dv > 0.0) or (x <= p[_XMIN] and dv < 0.0)):
         return di, 0.0, 0.0
     return di, v, dv
@@ -300,14 +313,22 @@ def solenoid_step(i, x, v, u, p, h):
 
 @numba.njit(cache=True)
 def solenoid_sequence(state, voltages, dt, substeps, p):
-    """Rows (I, x, v, coil force) at the end of each ZOH interval of `dt` from state (I, x, v): `substeps`
-    classical RK4 steps per interval with the inelastic stops (`solenoid_step`)."""
-    out = np.empty((voltages.size, 4))
+    """Rows (I, x, v, coil force, M_c) at the end of each ZOH interval of `dt` from state (M_c, x, v): `substeps`
+    classical RK4 steps per interval with the inelastic stops (`solenoid_step`); I the coil's current there, with
+    the interval's voltage (`coil_current`), M_c the circuit's (I without eddy currents)."""
+    out = np.empty((voltages.size, 5))
     i, x, v = state[0], state[1], state[2]
     h = dt / substeps
     for k in range(voltages.size):
         for _ in range(substeps):
             i, x, v = solenoid_step(i, x, v, voltages[k], p, h)
-        out[k, 0], out[k, 1], out[k, 2] = i, x, v
-        out[k, 3] = coil_terms(i, x, p)[2]
+        out[k, 0], out[k, 1], out[k, 2] = coil_current(i, voltages[k], p), x, v
+        out[k, 3], out[k, 4] = coil_terms(i, x, p)[2], i
     return out
+
+
+@numba.njit(cache=True)
+def coil_current(circuit_current, voltage, p):
+    """The coil's current I = (M_c + G u) / (1 + R G) (A) at the circuit's current M_c and the voltage held: M_c
+    itself without eddy currents."""
+    return (circuit_current + p[_GE] * voltage) / (1.0 + p[_R] * p[_GE])
