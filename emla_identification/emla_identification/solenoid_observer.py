@@ -8,7 +8,8 @@ of the physics layer when the model has them), psi the flux linkage. An extended
 - psi over each held-voltage interval from the coil's equation, dpsi/dt = u - R I: the voltage exactly, the
   measured current by the trapezoid corrected for the jump of dI/dt where the voltage steps,
       psi_k = psi_k-1 + u_k-1 Ts - R (Ts (I_k-1 + I_k) / 2 + Ts^2 (u_k-1 - u_k-2) / (12 l(x_k-1)))
-  with the current's noise as the process noise;
+  with the current's noise as the process noise (with eddy currents I itself jumps there by
+  G (u_k-1 - u_k-2) / (1 + R G), half of it in the trapezoid, and dI/dt's jump is over 1 + R G);
 - x and v by the identified mechanics (physics.solenoid.armature_step: the co-energy force at the measured
   current, the spring, damping, friction, inelastic stops), with a white force noise `force_noise` for what they
   miss; an armature on a stop stays there while the net force presses it on;
@@ -40,7 +41,7 @@ from emla_core.physics.solenoid import SOLENOID_PARAMETER_NAMES, SolenoidParamet
 from .solenoid import SolenoidResult
 from .solenoid_online import ResistanceEstimate
 
-DRIFT = 0.01          # 1/s^1.5: the random walk of R's rate, relative: its standard deviation after one second
+DRIFT = 0.1           # 1/s^1.5: the random walk of R's rate, relative: its standard deviation after one second
 START = 0.05          # R's relative standard deviation at the start (the bench's R, the coil perhaps warmer)
 STEPS = 10            # semi-implicit Euler steps of the mechanics per sample
 TOLERANCE = 0.2       # of the stroke: the position noise from the current alone past which a sample is `held`
@@ -246,7 +247,8 @@ class PositionObserver(ResistanceEstimate):
         self.state = self.state + gain * (current - predicted)
         self.cov = self.cov - np.outer(gain, h @ self.cov)
         if self._stop is None and not p.stroke_min <= self.state[1] <= p.stroke_max:
-            reset |= self._land(current)
+            self._land(current)
+            reset = True
         self._previous = (voltage, self._previous[0] if self._previous else voltage, current)
         self.samples += 1
         position = min(max(float(self.state[1]), p.stroke_min), p.stroke_max)
@@ -269,7 +271,7 @@ class PositionObserver(ResistanceEstimate):
         self.state = np.array([p.flux_linkage(middle, current), middle, 0.0, self.state[3], self.state[4]])
         self.cov[:3, :] = self.cov[:, :3] = 0.0
         self.cov[0, 0], self.cov[1, 1] = spread + (p.inductance(middle) * noise) ** 2, (high - low) ** 2 / 12
-        self.cov[2, 2] = self._acceleration_density * 0.01   # the velocity a 10 ms of the force noise may give
+        self.cov[2, 2] = self._acceleration_density * 0.01   # the velocity's variance: 10 ms of the force noise
         self._stop = None
         return True
 
@@ -279,7 +281,9 @@ class PositionObserver(ResistanceEstimate):
         u1, u2, i1 = self._previous
         psi, x, v, resistance, rate = self.state
         incremental = 1.0 / (1.0 / p.inductance(x) + 3.0 * p.saturation_coefficient * psi * psi)
-        q = 0.5 * ts * (i1 + current) + ts * ts / 12 * (u1 - u2) / incremental
+        eddy = 1.0 + resistance * p.eddy_conductance   # with eddy currents the current also jumps where u steps
+        q = 0.5 * ts * (i1 + current + p.eddy_conductance * (u1 - u2) / eddy) \
+            + ts * ts / 12 * (u1 - u2) / (incremental * eddy)
         x, v, mechanics, stop = armature_step(x, v, i1, current, ts, STEPS, self._kernel)
         self._stop = None if stop < 0 else stop
         self.state = np.array([psi + u1 * ts - resistance * q, x, v, resistance + rate * ts, rate])
@@ -299,15 +303,14 @@ class PositionObserver(ResistanceEstimate):
         return transition, False
 
     def _land(self, current):
-        """The measurement put the armature in flight beyond a stop: on the stop, at rest; resting there if the net
-        force presses it on. Returns True (x and v reset)."""
+        """The measurement put the armature in flight beyond a stop: on the stop, at rest (x and v reset); resting
+        there if the net force presses it on."""
         p = self.params
         stop = 0 if self.state[1] < p.stroke_min else 1
         self.state[1], self.state[2] = (p.stroke_min, p.stroke_max)[stop], 0.0
         if armature_step(self.state[1], 0.0, current, current, self.sample_period, 1, self._kernel)[3] == stop:
             self._stop = stop
         self._pin()
-        return True
 
     def _pin(self):
         """x and v known: their rows and columns of the covariance cleared to PINNED."""

@@ -81,7 +81,8 @@ def add_arguments(parser):
     parser.add_argument('--input', metavar='COL', help='ARX input column (default voltage)')
     parser.add_argument('--output', metavar='COL', help='ARX output column (default current)')
     parser.add_argument('--json', metavar='FILE', help='write the result here instead of stdout')
-    parser.add_argument('--plot', metavar='FILE.png', help='PNG of the estimates converging over time')
+    parser.add_argument('--plot', metavar='FILE.png', help='PNG of the estimates converging over time (with '
+                        '--observer-from: the position and R from the coil over time)')
     parser.add_argument('--trajectory', metavar='FILE.csv',
                         help='grey box: CSV of the estimates over time: time (s), then each parameter and its '
                              '<name>_std (SI), one row per interval')
@@ -182,9 +183,9 @@ def _observer(args):
     import numpy as np
 
     from emla_identification.solenoid_observer import observe_position, observer_model
-    _solenoid_only(args)
-    check_outputs({'--json': args.json, '--position-out': args.position_out}, [args.data, args.observer_from],
-                  args.force)
+    _solenoid_only(args, allowed=('--plot',))
+    check_outputs({'--json': args.json, '--position-out': args.position_out, '--plot': args.plot},
+                  [args.data, args.observer_from], args.force)
     try:
         fit = json.loads(Path(args.observer_from).read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
@@ -201,14 +202,22 @@ def _observer(args):
                            'end_std': float(estimate.resistance_std[-1])},
             'position_std_median': float(np.median(estimate.position_std)),
             'warnings': lost, **understood(recording, 'identify')}
-    emit_json(data, args.json, [(args.position_out, lambda temporary: estimate.write_csv(recording.time,
-                                                                                          temporary))])
+    measured = recording.signals.get('position')
+    if measured is not None:   # a record with its own position: how far the estimate is from it
+        data['position_rms_error'] = float(np.sqrt(np.mean((estimate.position - measured) ** 2)))
+    files = [(args.position_out, lambda temporary: estimate.write_csv(recording.time, temporary))]
+    if args.plot:
+        from emla_cli.observer_plot import save_observer_plot
+        files.append((args.plot, lambda temporary: save_observer_plot(
+            temporary, recording.time, estimate, measured, f'{Path(args.data).name}: position from the coil')))
+    emit_json(data, args.json, files)
     return 0
 
 
-def _solenoid_only(args):
-    """InputError for the moving coil's options given with --actuator solenoid."""
-    given = [flag for flag, name in NOT_FOR_SOLENOID.items() if getattr(args, name) is not None]
+def _solenoid_only(args, allowed=()):
+    """InputError for the moving coil's options given with --actuator solenoid (but those `allowed`)."""
+    given = [flag for flag, name in NOT_FOR_SOLENOID.items()
+             if getattr(args, name) is not None and flag not in allowed]
     if args.forgetting != 1.0:
         given.append('--forgetting')
     if given:
