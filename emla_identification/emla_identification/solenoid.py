@@ -76,7 +76,7 @@ STOP_SHARE = 0.01     # of the stroke: the least clearance from a stop of a forc
 RELIABLE = 0.1        # of the current's noise: the largest error a sample's predicted current may take from the path
 HINT_SAMPLES = 10000  # samples a moving coil's misfit record is tried as a solenoid on (a second at 10 kHz: ~2 s)
 PASSES = 3            # electrical and mechanical fits in turn (the first on a spline path between the samples)
-_SATURATION, _REMANENCE, _EDDY = (KERNEL_SLOTS.index(name) for name in ELECTRICAL_FIELDS[4:])
+_SATURATION, _REMANENCE = (KERNEL_SLOTS.index(name) for name in ELECTRICAL_FIELDS[4:6])
 FRICTION_SPEEDS = np.concatenate(([0.0], np.geomspace(1e-3, 0.3, 12)))   # v_s tried, times the path's peak speed
 
 
@@ -112,7 +112,8 @@ class SolenoidResult:
     def to_dict(self) -> dict:
         """The `emla identify --actuator solenoid` JSON object."""
         return {'model': self.model, 'samples': self.samples, 'sample_period': self.sample_period,
-                'parameters': dict(self.parameters), 'std': dict(self.std), 'free_rows': self.free_rows,
+                'parameters': dict(self.parameters), 'std': dict(self.std), 'settings': dict(self.settings),
+                'free_rows': self.free_rows,
                 'stroke': {'stroke_min': self.stroke[0], 'stroke_max': self.stroke[1]},
                 'fit': {name: f.to_dict() for name, f in self.fit.items()}, 'unresolved': self.unresolved()}
 
@@ -320,12 +321,12 @@ def _spline_error(x, stopped):
 def _reliable(i, x, stopped, error, electrical, ts):
     """The samples whose predicted current the path's possible error per interval (`error`, m) does not spoil:
     the current error it would cause, R I L'(x) dx Ts / L(x)^2, carried forward with the coil's decay
-    exp(-R Ts / L(x)), below RELIABLE of the current's noise (from its second difference on the stops, at least
-    1e-6 of the current's RMS)."""
+    exp(-R Ts / (L(x) (1 + R G))), below RELIABLE of the current's noise (from its second difference on the stops,
+    at least 1e-6 of the current's RMS)."""
     r, l0, a, g0 = electrical[:4]
     inductances = inductance(x[:-1], l0, a, g0)
     kick = r * np.abs(i[:-1]) * inductance_slope(x[:-1], a, g0) * error * ts / inductances ** 2
-    carried = _carried(kick, np.exp(-r * ts / inductances))
+    carried = _carried(kick, np.exp(-r * ts / (inductances * (1.0 + r * electrical[6]))))
     still = stopped[1:-1] & stopped[:-2] & stopped[2:]
     noise = 1.4826 * np.median(np.abs(np.diff(i, 2)[still])) / np.sqrt(6.0) if still.any() else 0.0
     return np.concatenate(([False], carried < RELIABLE * max(noise, 1e-6 * np.sqrt(np.mean(i * i)))))

@@ -9,10 +9,11 @@ of the physics layer when the model has them), psi the flux linkage. An extended
   measured current by the trapezoid corrected for the jump of dI/dt where the voltage steps,
       psi_k = psi_k-1 + u_k-1 Ts - R (Ts (I_k-1 + I_k) / 2 + Ts^2 (u_k-1 - u_k-2) / (12 l(x_k-1)))
   with the current's noise as the process noise (with eddy currents I itself jumps there by
-  G (u_k-1 - u_k-2) / (1 + R G), half of it in the trapezoid, and dI/dt's jump is over 1 + R G);
+  G (u_k-1 - u_k-2) / (1 + R G), half of it in the trapezoid, and dI/dt's jump is over (1 + R G)^2);
 - x and v by the identified mechanics (physics.solenoid.armature_step: the co-energy force at the measured
-  current, the spring, damping, friction, inelastic stops), with a white force noise `force_noise` for what they
-  miss; an armature on a stop stays there while the net force presses it on;
+  current (the circuit's, I (1 + R G) - G u, with eddy currents), the spring, damping, friction, inelastic
+  stops), with a white force noise `force_noise` for what they miss; an armature on a stop stays there while the
+  net force presses it on;
 - R with its rate a random walk (`drift`): a coil that warms is followed without lag. An error dR makes psi drift
   by dR I per second, so R must be known to about 0.01 % over a 10 ms flight: the rests on the stops, where x is
   known, measure it.
@@ -36,14 +37,14 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from emla_core.errors import InputError
-from emla_core.physics.solenoid import SOLENOID_PARAMETER_NAMES, SolenoidParameters, armature_step
+from emla_core.physics.solenoid import SOLENOID_EFFECTS, SOLENOID_PARAMETER_NAMES, SolenoidParameters, armature_step
 
 from .solenoid import SolenoidResult
 from .solenoid_online import ResistanceEstimate
 
 DRIFT = 0.1           # 1/s^1.5: the random walk of R's rate, relative: its standard deviation after one second
 START = 0.05          # R's relative standard deviation at the start (the bench's R, the coil perhaps warmer)
-STEPS = 10            # semi-implicit Euler steps of the mechanics per sample
+STEPS = 10            # RK4 steps of the mechanics per sample (physics.solenoid.armature_step)
 TOLERANCE = 0.2       # of the stroke: the position noise from the current alone past which a sample is `held`
 FORCE_NOISE = 1e-3    # 1/sqrt(Hz): the white force the mechanics miss, relative to the spring's k x_max + F0
 PINNED = 1e-12        # m^2 and (m/s)^2: the variance left in x and v where the armature is put on a stop
@@ -76,7 +77,8 @@ class PositionEstimate:
 
 def observer_model(fit: SolenoidResult | Mapping) -> tuple[SolenoidParameters, float]:
     """(SolenoidParameters, the current's noise in A) of an identification: a SolenoidResult or its JSON
-    (`emla identify --actuator solenoid --json`); the noise is the electrical fit's RMS residual over R.
+    (`emla identify --actuator solenoid --json`), with the effects it fitted (SOLENOID_EFFECTS, their settings);
+    the noise is the electrical fit's RMS residual over R.
 
     Raises
     ------
@@ -88,6 +90,11 @@ def observer_model(fit: SolenoidResult | Mapping) -> tuple[SolenoidParameters, f
         if data.get('model') != 'solenoid':
             raise KeyError('model')
         values = {name: float(data['parameters'][name]) for name in SOLENOID_PARAMETER_NAMES}
+        for names, settings in SOLENOID_EFFECTS.values():   # the effects fitted with it, as the model file's
+            values.update({field: max(float(data['parameters'][name]), 0.0) for name, field in names.items()
+                           if name in data['parameters']})
+            values.update({name: float(data.get('settings', {})[name]) for name in settings
+                           if name in data.get('settings', {})})
         stroke = {name: float(data['stroke'][name]) for name in ('stroke_min', 'stroke_max')}
         noise = float(data['fit']['electrical']['rms']) / values['resistance']
         return SolenoidParameters(**values, **stroke), noise
@@ -228,8 +235,9 @@ class PositionObserver(ResistanceEstimate):
         (put on a stop), the position, held)."""
         p, noise = self.params, self.current_noise
         transition = np.eye(5)
+        before = self._previous[0] if self._previous else voltage   # the voltage held up to this sample
         if self.state is None or self._previous is None:
-            reset = self._start(current)
+            reset = self._start(self._circuit(current, before))
         else:
             transition, reset = self._predict(current)
         ahead, ahead_cov = self.state.copy(), self.cov.copy()
@@ -238,16 +246,15 @@ class PositionObserver(ResistanceEstimate):
         psi, x = self.state[0], self.state[1]
         inductance, slope = p.inductance(x), p.inductance_slope(x)
         scale = 1.0 / (1.0 + self.state[3] * p.eddy_conductance)
-        h = scale * np.array([1.0 / inductance + 3.0 * p.saturation_coefficient * psi * psi,
-                              -psi * slope / inductance ** 2, 0.0, 0.0, 0.0])
-        before = self._previous[0] if self._previous else voltage
         predicted = scale * (psi / inductance + p.saturation_coefficient * psi ** 3 - p.remanence_current
                              + p.eddy_conductance * before)
+        h = scale * np.array([1.0 / inductance + 3.0 * p.saturation_coefficient * psi * psi,
+                              -psi * slope / inductance ** 2, 0.0, -p.eddy_conductance * predicted, 0.0])
         gain = self.cov @ h / (h @ self.cov @ h + noise * noise)
         self.state = self.state + gain * (current - predicted)
         self.cov = self.cov - np.outer(gain, h @ self.cov)
         if self._stop is None and not p.stroke_min <= self.state[1] <= p.stroke_max:
-            self._land(current)
+            self._land(self._circuit(current, before))
             reset = True
         self._previous = (voltage, self._previous[0] if self._previous else voltage, current)
         self.samples += 1
@@ -257,7 +264,7 @@ class PositionObserver(ResistanceEstimate):
 
     def _start(self, current):
         """The first sample (at rest on the open stop) or the first after a gap (anywhere on the stroke, its flux
-        from the current): the state before the measurement. Returns True (x and v reset)."""
+        from the circuit's `current`): the state before the measurement. Returns True (x and v reset)."""
         p, noise = self.params, self.current_noise
         low, high = p.stroke_min, p.stroke_max
         if self.state is None:
@@ -283,8 +290,9 @@ class PositionObserver(ResistanceEstimate):
         incremental = 1.0 / (1.0 / p.inductance(x) + 3.0 * p.saturation_coefficient * psi * psi)
         eddy = 1.0 + resistance * p.eddy_conductance   # with eddy currents the current also jumps where u steps
         q = 0.5 * ts * (i1 + current + p.eddy_conductance * (u1 - u2) / eddy) \
-            + ts * ts / 12 * (u1 - u2) / (incremental * eddy)
-        x, v, mechanics, stop = armature_step(x, v, i1, current, ts, STEPS, self._kernel)
+            + ts * ts / 12 * (u1 - u2) / (incremental * eddy ** 2)
+        x, v, mechanics, stop = armature_step(x, v, self._circuit(i1, u2), self._circuit(current, u1), ts, STEPS,
+                                              self._kernel)
         self._stop = None if stop < 0 else stop
         self.state = np.array([psi + u1 * ts - resistance * q, x, v, resistance + rate * ts, rate])
         transition = np.eye(5)
@@ -302,15 +310,21 @@ class PositionObserver(ResistanceEstimate):
             return transition, True
         return transition, False
 
-    def _land(self, current):
+    def _land(self, circuit):
         """The measurement put the armature in flight beyond a stop: on the stop, at rest (x and v reset); resting
-        there if the net force presses it on."""
+        there if the net force at the circuit's current presses it on."""
         p = self.params
         stop = 0 if self.state[1] < p.stroke_min else 1
         self.state[1], self.state[2] = (p.stroke_min, p.stroke_max)[stop], 0.0
-        if armature_step(self.state[1], 0.0, current, current, self.sample_period, 1, self._kernel)[3] == stop:
+        if armature_step(self.state[1], 0.0, circuit, circuit, self.sample_period, 1, self._kernel)[3] == stop:
             self._stop = stop
         self._pin()
+
+    def _circuit(self, current, before):
+        """The circuit's current M_c = I (1 + R G) - G u of a sampled coil current I, u the voltage held up to the
+        sample (I itself without eddy currents)."""
+        g = self.params.eddy_conductance
+        return current if g == 0.0 else current * (1.0 + self.resistance * g) - g * before
 
     def _pin(self):
         """x and v known: their rows and columns of the covariance cleared to PINNED."""

@@ -1,7 +1,8 @@
 """The solenoid plant and its open-loop recordings (docs/physics.md §9).
 
-SolenoidPlant advances the coil current I, the armature position x and velocity v over zero-order-hold voltage
-intervals by RK4 sub-steps of at most plant.MAX_SUBSTEP, compiled (emla_core.physics.solenoid.solenoid_sequence,
+SolenoidPlant advances the circuit's current M_c (the coil current I without eddy currents: physics.solenoid), the
+armature position x and velocity v over zero-order-hold voltage intervals by RK4 sub-steps of at most
+plant.MAX_SUBSTEP, compiled (emla_core.physics.solenoid.solenoid_sequence,
 whose right-hand side is equations.coil_rates with the solenoid's l, e, F), with inelastic end stops.
 `excitation` is a voltage that moves the armature across its stroke at a bias current of 1-3 A, and `record`
 samples the plant under it with emla_sim.Sensor, in the moving coil's recording form (voltage, current,

@@ -35,8 +35,9 @@ A solenoid (--actuator solenoid: a reluctance actuator, force I^2 L'(x)/2, L(x) 
 spring F0 + k x, end stops): R, L0, a, g0, m, B, k, F0 with one-sigma uncertainties and the fit check, from
 voltage, current and position, offline. With --observer-from FIT.json (that JSON, from a bench record with
 position) and --position-out FILE.csv, DATA needs voltage and current only: the armature's position is
-estimated from the coil's flux linkage, R tracked as the coil warms, and written as t, position_estimate (m),
-resistance_estimate (ohm), held (1 where the current was too small to invert).
+estimated from the coil's current by a Kalman filter on the flux linkage, the mechanics and R (R tracked as the
+coil warms), and written as t, position_estimate (m), position_std (m), resistance_estimate (ohm), held (1 where
+the current alone could not locate the armature).
 
 Black box (--model arx): y(t) + a1 y(t-1) + ... = b1 u(t-nk) + ... by recursive least squares; default
 input voltage, output current, orders 2 2 1 (the coil current's exact structure). With --forgetting 1 it
@@ -95,7 +96,8 @@ def add_arguments(parser):
                         help='--actuator solenoid: estimate the position of DATA (voltage, current) from the coil, '
                              'with the solenoid identified in FIT.json')
     parser.add_argument('--position-out', metavar='FILE.csv',
-                        help='with --observer-from: CSV of t, position_estimate (m), resistance_estimate (ohm), held')
+                        help='with --observer-from: CSV of t, position_estimate (m), position_std (m), '
+                             'resistance_estimate (ohm), held')
     add_force_argument(parser)
     add_data_arguments(parser)
 

@@ -259,8 +259,13 @@ def armature_step(x, v, i0, i1, dt, steps, p):
             dx, dv = (1e-9 * (p[_XMAX] - p[_XMIN]), 0.0) if column == 0 else (0.0, 1e-6)
             up = _flight(x + dx, v + dv, i0, i1, dt, steps, p)
             down = _flight(x - dx, v - dv, i0, i1, dt, steps, p)
-            d = dx + dv
-            jacobian[0, column], jacobian[1, column] = (up[0] - down[0]) / (2 * d), (up[1] - down[1]) / (2 * d)
+            span = 2.0 * (dx + dv)
+            if up[2] >= 0:     # a perturbed run that lands: the difference on the side still in flight
+                up, span = (x1, v1, stop), dx + dv
+            elif down[2] >= 0:
+                down, span = (x1, v1, stop), dx + dv
+            if up[2] < 0 and down[2] < 0:
+                jacobian[0, column], jacobian[1, column] = (up[0] - down[0]) / span, (up[1] - down[1]) / span
     return x1, v1, jacobian, stop
 
 
@@ -295,9 +300,10 @@ def _rk4(i, x, v, u, p, h):
 
 @numba.njit(cache=True)
 def solenoid_step(i, x, v, u, p, h):
-    """(I, x, v) after one sub-step of h at voltage u, parameters p (KERNEL_SLOTS), with the inelastic stops: a
-    step that crosses a stop is split where it reaches it (the crossing found linearly within the step), the
-    armature put on the stop at rest, and the rest of the step taken from there."""
+    """(M_c, x, v) after one sub-step of h at voltage u, parameters p (KERNEL_SLOTS), M_c the circuit's current (I
+    without eddy currents), with the inelastic stops: a step that crosses a stop is split where it reaches it (the
+    crossing found linearly within the step), the armature put on the stop at rest, and the rest of the step taken
+    from there."""
     i1, x1, v1 = _rk4(i, x, v, u, p, h)
     stop = p[_XMAX] if x1 > p[_XMAX] else p[_XMIN] if x1 < p[_XMIN] else x1
     if stop == x1:
