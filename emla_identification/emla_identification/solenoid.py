@@ -50,6 +50,8 @@ from emla_core.physics.solenoid import (
     SOLENOID_EFFECTS,
     SOLENOID_PARAMETER_NAMES,
     SolenoidParameters,
+    circuit_current,
+    coil_current,
     flux,
     inductance,
     inductance_slope,
@@ -371,7 +373,7 @@ def _spline_nodes(x, stopped, substeps):
 
 
 @numba.njit(cache=True)
-def _coil_current(psi, x, l0, a, g0, c, remanence):
+def _circuit_at(psi, x, l0, a, g0, c, remanence):
     """M_c = psi / L(x) + c psi^3 - I_r: the coil's current without eddy currents."""
     return psi / inductance(x, l0, a, g0) + c * psi * psi * psi - remanence
 
@@ -388,22 +390,21 @@ def _driven(u, i0, nodes, r, l0, a, g0, c, remanence, eddy, ts, substeps):
     magnetizing = np.empty((n, substeps + 1))
     h = ts / substeps
     scale = 1.0 / (1.0 + r * eddy)
-    circuit = i0 / scale - eddy * u[0]
-    psi = flux(circuit + remanence, inductance(nodes[0, 0], l0, a, g0), c)
+    psi = flux(circuit_current(i0, u[0], r, eddy) + remanence, inductance(nodes[0, 0], l0, a, g0), c)
     for k in range(n):
         magnetizing[k, 0] = psi / inductance(nodes[k, 0], l0, a, g0)
         circuit = magnetizing[k, 0] + c * psi * psi * psi - remanence
-        current[k] = (circuit + eddy * u[max(k - 1, 0)]) * scale
+        current[k] = coil_current(circuit, u[max(k - 1, 0)], r, eddy)
         for s in range(substeps):
             x0, xm, x1 = nodes[k, 2 * s], nodes[k, 2 * s + 1], nodes[k, 2 * s + 2]
-            k1 = (u[k] - r * _coil_current(psi, x0, l0, a, g0, c, remanence)) * scale
-            k2 = (u[k] - r * _coil_current(psi + 0.5 * h * k1, xm, l0, a, g0, c, remanence)) * scale
-            k3 = (u[k] - r * _coil_current(psi + 0.5 * h * k2, xm, l0, a, g0, c, remanence)) * scale
-            k4 = (u[k] - r * _coil_current(psi + h * k3, x1, l0, a, g0, c, remanence)) * scale
+            k1 = (u[k] - r * _circuit_at(psi, x0, l0, a, g0, c, remanence)) * scale
+            k2 = (u[k] - r * _circuit_at(psi + 0.5 * h * k1, xm, l0, a, g0, c, remanence)) * scale
+            k3 = (u[k] - r * _circuit_at(psi + 0.5 * h * k2, xm, l0, a, g0, c, remanence)) * scale
+            k4 = (u[k] - r * _circuit_at(psi + h * k3, x1, l0, a, g0, c, remanence)) * scale
             psi += h / 6.0 * (k1 + 2.0 * (k2 + k3) + k4)
             magnetizing[k, s + 1] = psi / inductance(x1, l0, a, g0)
     circuit = magnetizing[n - 1, substeps] + c * psi * psi * psi - remanence
-    current[n] = (circuit + eddy * u[n - 1]) * scale
+    current[n] = coil_current(circuit, u[n - 1], r, eddy)
     return current, magnetizing
 
 
@@ -458,7 +459,7 @@ def _paths(u, i0, x, stopped, p, ts, substeps):
             error[k - 1] = max(error[k - 1], jump)
         if k + 1 < n - 1:   # the flux linkage carries over to the measured position
             psi = flux(i + p[_REMANENCE], inductance(x_end, p[1], p[2], p[3]), p[_SATURATION])
-            i = _coil_current(psi, x[k + 1], p[1], p[2], p[3], p[_SATURATION], p[_REMANENCE])
+            i = _circuit_at(psi, x[k + 1], p[1], p[2], p[3], p[_SATURATION], p[_REMANENCE])
     return current, position, error
 
 

@@ -37,7 +37,14 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from emla_core.errors import InputError
-from emla_core.physics.solenoid import SOLENOID_EFFECTS, SOLENOID_PARAMETER_NAMES, SolenoidParameters, armature_step
+from emla_core.physics.solenoid import (
+    SOLENOID_EFFECTS,
+    SOLENOID_PARAMETER_NAMES,
+    SolenoidParameters,
+    armature_step,
+    circuit_current,
+    coil_current,
+)
 
 from .solenoid import SolenoidResult
 from .solenoid_online import ResistanceEstimate
@@ -242,12 +249,12 @@ class PositionObserver(ResistanceEstimate):
             transition, reset = self._predict(current)
         ahead, ahead_cov = self.state.copy(), self.cov.copy()
         # the measurement I = h(psi, x): the circuit's current at the flux linkage and position, and the eddy
-        # currents' G dpsi/dt with the voltage of the interval ending here (physics.solenoid.coil_current)
+        # currents' G dpsi/dt with the voltage of the interval ending here
         psi, x = self.state[0], self.state[1]
         inductance, slope = p.inductance(x), p.inductance_slope(x)
         scale = 1.0 / (1.0 + self.state[3] * p.eddy_conductance)
-        predicted = scale * (psi / inductance + p.saturation_coefficient * psi ** 3 - p.remanence_current
-                             + p.eddy_conductance * before)
+        predicted = coil_current(psi / inductance + p.saturation_coefficient * psi ** 3 - p.remanence_current,
+                                 before, self.state[3], p.eddy_conductance)
         h = scale * np.array([1.0 / inductance + 3.0 * p.saturation_coefficient * psi * psi,
                               -psi * slope / inductance ** 2, 0.0, -p.eddy_conductance * predicted, 0.0])
         gain = self.cov @ h / (h @ self.cov @ h + noise * noise)
@@ -321,10 +328,9 @@ class PositionObserver(ResistanceEstimate):
         self._pin()
 
     def _circuit(self, current, before):
-        """The circuit's current M_c = I (1 + R G) - G u of a sampled coil current I, u the voltage held up to the
-        sample (I itself without eddy currents)."""
-        g = self.params.eddy_conductance
-        return current if g == 0.0 else current * (1.0 + self.resistance * g) - g * before
+        """The circuit's current M_c of a sampled coil current, `before` the voltage held up to the sample, at the
+        R tracked (the current itself without eddy currents)."""
+        return circuit_current(current, before, self.resistance, self.params.eddy_conductance)
 
     def _pin(self):
         """x and v known: their rows and columns of the covariance cleared to PINNED."""

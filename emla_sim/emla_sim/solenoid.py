@@ -56,7 +56,8 @@ class SolenoidPlant:
         self._kernel = self.params.kernel_vector()
         self.time = 0.0
 
-    current = property(lambda self: float(coil_current(self._state[0], self._voltage, self._kernel)),
+    current = property(lambda self: float(coil_current(self._state[0], self._voltage, self.params.resistance,
+                                                       self.params.eddy_conductance)),
                        doc='Coil current I (A).')
     position = property(lambda self: float(self._state[1]), doc='Armature position x (m).')
     velocity = property(lambda self: float(self._state[2]), doc='Armature velocity v (m/s).')

@@ -328,13 +328,20 @@ def solenoid_sequence(state, voltages, dt, substeps, p):
     for k in range(voltages.size):
         for _ in range(substeps):
             i, x, v = solenoid_step(i, x, v, voltages[k], p, h)
-        out[k, 0], out[k, 1], out[k, 2] = coil_current(i, voltages[k], p), x, v
+        out[k, 0], out[k, 1], out[k, 2] = coil_current(i, voltages[k], p[_R], p[_GE]), x, v
         out[k, 3], out[k, 4] = coil_terms(i, x, p)[2], i
     return out
 
 
 @numba.njit(cache=True)
-def coil_current(circuit_current, voltage, p):
+def coil_current(circuit, voltage, resistance, eddy_conductance):
     """The coil's current I = (M_c + G u) / (1 + R G) (A) at the circuit's current M_c and the voltage held: M_c
     itself without eddy currents."""
-    return (circuit_current + p[_GE] * voltage) / (1.0 + p[_R] * p[_GE])
+    return (circuit + eddy_conductance * voltage) / (1.0 + resistance * eddy_conductance)
+
+
+@numba.njit(cache=True)
+def circuit_current(current, voltage, resistance, eddy_conductance):
+    """The circuit's current M_c = I (1 + R G) - G u (A) of the coil's current I and the voltage held: coil_current
+    inverted."""
+    return current * (1.0 + resistance * eddy_conductance) - eddy_conductance * voltage
