@@ -7,7 +7,8 @@ at high frequency (the second difference of the position, the one-step current),
 actuator (friction at reversals, springs, heating, saturation at the strokes) put little. So:
   1. the levels a_s are fitted (non-negative least squares) to the residual's Welch spectrum in the high band
      (above HIGH of the sampling rate), where the noise dominates, shared by the equations (the same sensors);
-  2. the power the noise predicts in the low band (below LOW) is compared with the residual's power there.
+  2. the power the noise predicts in the low band (below LOW) is compared with the residual's power there (its
+     mean included).
 An adequate model leaves the ratio near 1 (0.9-1.3 on noise-only records); a missing effect adds low-band
 power (ratios of 10 to 10^4 for the effects of physics.md at realistic strengths). A model that is a close but
 not exact description of the plant (a first-order thermal model, a quadratic saturation) leaves ratios of 1.5-3,
@@ -52,21 +53,23 @@ def low_band(equations, sample_period):
         segment = min(SEGMENT, len(e) // 4)
         frequency, power = welch(e, fs=1.0 / ts, nperseg=segment, detrend='constant')
         shapes = {name: _shape(c, segment, 2 * (len(frequency) - 1), ts) for name, c in filters.items()}
-        spectra[key] = (frequency, power, shapes)
-    sources = sorted({name for *_, shapes in spectra.values() for name in shapes})
+        spectra[key] = (frequency, power, shapes, float(np.mean(e)) ** 2)
+    sources = sorted({name for _, _, shapes, _ in spectra.values() for name in shapes})
     rows, targets = [], []
-    for frequency, power, shapes in spectra.values():
+    for frequency, power, shapes, _ in spectra.values():
         high = frequency >= HIGH / ts
         weight = 1.0 / power[high].mean() if power[high].mean() > 0 else 1.0   # each equation in its own units
         rows.append(weight * np.column_stack([shapes.get(name, np.zeros(len(frequency)))[high] for name in sources]))
         targets.append(weight * power[high])
     levels = dict(zip(sources, nnls(np.vstack(rows), np.concatenate(targets))[0]))
     out = {}
-    for key, (frequency, power, shapes) in spectra.items():
+    for key, (frequency, power, shapes, constant) in spectra.items():
         predicted = sum(levels[name] * shape for name, shape in shapes.items())
         low = (frequency > 0) & (frequency <= LOW / ts)
         step = frequency[1] - frequency[0]
-        measured_low, predicted_low = power[low].sum() * step, predicted[low].sum() * step
+        # the residual's mean too (Welch's detrending drops it): an offset the model cannot meet (a current
+        # sensor's, a drive's) is a low-band misfit; the noise's own mean is some 1/N of its low band
+        measured_low, predicted_low = power[low].sum() * step + constant, predicted[low].sum() * step
         ratio = measured_low / predicted_low if predicted_low > 0 else np.inf
         out[key] = LowBand(float(np.sqrt(max(measured_low - predicted_low, 0.0))), float(np.sqrt(predicted_low)),
                            float(ratio))

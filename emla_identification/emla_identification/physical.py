@@ -21,7 +21,7 @@ from scipy.optimize import least_squares
 from emla_core.parameters import PARAMETER_NAMES
 
 from .noise import coefficient_covariances, noise_variances
-from .regressors import FIRST_ORDER
+from .regressors import COLUMNS, FIRST_ORDER
 
 MODEL_PARAMETERS = {
     'electrical': ('resistance', 'inductance', 'emf_constant'),
@@ -32,6 +32,7 @@ COIL_PARAMETERS = 5     # R, L, Km, m, B: the parameters the coil regressions de
 DECAYS = (0.1, 0.5, 2.0, 8.0, 32.0)   # R Ts / L of the fit's further starts (starts_for)
 MASS_FACTORS = (0.1, 1.0, 10.0)      # and their masses, over the guess's
 RESOLUTION = 1e-7                    # relative floor of a row's residual (_white_covariance)
+OFFSET_EVIDENCE = 25.0               # chi-square a free electrical constant must gain, in misfit units
 
 
 def transition(q, sample_period):
@@ -263,7 +264,14 @@ def _white_covariance(stats):
 
 def _minimum_distance(statistics, covariances, sample_period, start):
     """(q, covariance of q): g(q) fitted to the regressions' coefficients with weights from `covariances`, from
-    `start`, or (None) from each of starts() keeping the best fit."""
+    `start`, or (None) from each of starts() keeping the best fit.
+
+    A current sensor's offset I0 or a drive's voltage offset puts a constant into the electrical regression that
+    the physics (the load force's tiny gain into the current) cannot meet: fitted to it, R, L, Km and m go
+    anywhere (R = 9e6 ohm for 0.28 A on a voice coil). So the fit is also made with that constant free (a
+    nuisance, dropped from q), and the free fit is kept where it is better by more than OFFSET_EVIDENCE times
+    the misfit per degree of freedom; the fixed one otherwise, since freeing the constant costs the information
+    a mean current carries about R (a spring held by the coil)."""
     kinds = list(statistics)
     theta = np.concatenate([statistics[k].theta for k in kinds])
     whiten = _block_whitening([covariances[k] for k in kinds])
@@ -274,33 +282,55 @@ def _minimum_distance(statistics, covariances, sample_period, start):
         return np.full(n, np.nan), np.full((n, n), np.nan)
     scale = np.where(np.arange(n) < (0 if 'force' in statistics else COIL_PARAMETERS), np.abs(starts[0]), 1.0)
     scale[scale == 0.0] = 1.0
+    offset = _offset_column(statistics)
+    free = whiten[:, [] if offset is None else [offset]]   # the free constant's column in the residual
 
     def g(z):   # the coefficients of all regressions for scaled parameters z (rows of z)
         q = z * scale
         motion = None if 'force' in statistics else transition(q, sample_period)
         return np.concatenate([coefficients(k, q, sample_period, motion) for k in kinds], axis=-1)
 
-    def residual(z):
-        return whiten @ (g(z) - theta)
+    def residual(z):   # z: the scaled parameters, then the free constants (none or one)
+        return whiten @ (g(z[:n]) - theta) + free[:, :len(z) - n] @ z[n:]
 
     def jacobian(z):
-        return whiten @ _differences(g, z, np.where(np.arange(n) < COIL_PARAMETERS, 1e-6 * np.maximum(np.abs(z), 1e-3),
-                                                    1.0))
+        steps = np.where(np.arange(n) < COIL_PARAMETERS, 1e-6 * np.maximum(np.abs(z[:n]), 1e-3), 1.0)
+        return np.column_stack((whiten @ _differences(g, z[:n], steps), free[:, :len(z) - n]))
 
-    best = None
-    for q0 in starts:
-        try:
-            fit = least_squares(residual, q0 / scale, jac=jacobian, method='lm', xtol=1e-12, ftol=1e-12)
-        except ValueError:   # a start where the model is not finite
-            continue
-        if np.isfinite(fit.cost) and (best is None or fit.cost < best.cost):
-            best = fit
+    def best_fit(starts):
+        best = None
+        for z0 in starts:
+            try:
+                fit = least_squares(residual, z0, jac=jacobian, method='lm', xtol=1e-12, ftol=1e-12)
+            except ValueError:   # a start where the model is not finite
+                continue
+            if np.isfinite(fit.cost) and (best is None or fit.cost < best.cost):
+                best = fit
+        return best
+
+    best = best_fit([np.concatenate((q0 / scale, np.zeros(free.shape[1]))) for q0 in starts])
+    if best is not None and offset is not None:   # the constant fixed by the physics, from the free fit
+        fixed = best_fit([best.x[:n]])
+        spread = 2.0 * best.cost / max(len(theta) - n - 1, 1)
+        if fixed is not None and fixed.cost - best.cost <= 0.5 * OFFSET_EVIDENCE * max(spread, 1.0):
+            best = fixed
     try:
         j = jacobian(best.x)
-        covariance = np.linalg.inv(j.T @ j)
+        covariance = np.linalg.inv(j.T @ j)[:n, :n]
     except (AttributeError, ValueError, np.linalg.LinAlgError):   # (no start converged: best is None)
         return np.full(n, np.nan), np.full((n, n), np.nan)
-    return best.x * scale, covariance * np.outer(scale, scale)
+    return best.x[:n] * scale, covariance * np.outer(scale, scale)
+
+
+def _offset_column(statistics):
+    """The index, among all regressions' coefficients in order, of the electrical regression's constant (None
+    without one)."""
+    at = 0
+    for kind, s in statistics.items():
+        if kind in ('electrical', 'electrical_velocity'):
+            return at + COLUMNS[kind].index('one')
+        at += len(s.theta)
+    return None
 
 
 def starts_for(statistics, sample_period):
