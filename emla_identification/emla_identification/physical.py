@@ -308,12 +308,12 @@ def _minimum_distance(statistics, covariances, sample_period, start):
                 best = fit
         return best
 
-    best = best_fit([np.concatenate((q0 / scale, np.zeros(free.shape[1]))) for q0 in starts])
-    if best is not None and offset is not None:   # the constant fixed by the physics, from the free fit
-        fixed = best_fit([best.x[:n]])
-        spread = 2.0 * best.cost / max(len(theta) - n - 1, 1)
-        if fixed is not None and fixed.cost - best.cost <= 0.5 * OFFSET_EVIDENCE * max(spread, 1.0):
-            best = fixed
+    best = best_fit([q0 / scale for q0 in starts])   # the constant as the physics fixes it
+    if best is not None and offset is not None:      # and free, kept where it is better by far
+        loose = best_fit([np.append(z0, 0.0) for z0 in (best.x, starts[0] / scale)])
+        spread = 2.0 * loose.cost / max(len(theta) - n - 1, 1) if loose is not None else np.inf
+        if best.cost - loose.cost > 0.5 * OFFSET_EVIDENCE * max(spread, 1.0):
+            best = loose
     try:
         j = jacobian(best.x)
         covariance = np.linalg.inv(j.T @ j)[:n, :n]
