@@ -24,7 +24,10 @@ is significant, which it is when
      blocks, where its gain is the noise's,
   2. its score is at least MIN_SCORE: with N ~ 1e4..1e5 samples any term correlated with a tiny structural
      misfit would pass a test of "different from zero", so an effect has to matter (noise-only data give
-     scores below 0.2 %, the effects of physics.md at realistic strengths 39 % and more),
+     scores below 0.2 %, the effects of physics.md at realistic strengths 39 % and more); or, added, it
+     removes at least MIN_SHARE of the disagreement left, which matters however small a share of the one-step
+     error it is (a current sensor's 25 mA offset: 27 times the floor in the electrical equation's mean, 4.6 %
+     of its one-step error),
   3. its parameters are resolved: some parameter is at least MIN_T jackknife sigmas from zero (block
      jackknife, again robust to coloured residuals; a delay has no continuous parameter), and
   4. those it resolves (MIN_T sigmas from zero) have the sign physics gives them (Candidate.signs: friction
@@ -108,9 +111,14 @@ class Assessment:
     share: float = float('nan')  # of the disagreement left that it removes (set when it is the best)
 
     @property
-    def significant(self):
+    def evident(self):
+        """Better in enough held-out blocks, resolved, of a possible sign: significant if it also matters."""
         blocks = MIN_BLOCKS - 1 if self.score >= MOST else MIN_BLOCKS
-        return self.blocks_improved >= blocks and self.score >= MIN_SCORE and self.resolved and self.plausible
+        return self.blocks_improved >= blocks and self.resolved and self.plausible
+
+    @property
+    def significant(self):
+        return self.evident and (self.score >= MIN_SCORE or self.share >= MIN_SHARE)
 
     @property
     def named(self):
@@ -331,7 +339,7 @@ def diagnose(data: Recording | Path | str | None = None, names: Sequence[str] | 
         diagnosis = Diagnosis(data, nominal, ranked, adequacy, predict(nominal), warnings=warnings)
         current, left = nominal, ranked
         while len(diagnosis.stages) < MAX_EFFECTS:
-            best = left[0] if left and left[0].significant else None
+            best = left[0] if left and left[0].evident else None
             # an equation within MAX_RATIO of its noise floor may still hold an effect that most of its held-out
             # error is (a current sensor's 50 mA offset: 2.5 times the floor, 78 % of the error, 10 of 10 blocks)
             if best is None or (all(a.adequate for a in adequacy.values()) and best.score < MOST):
@@ -340,7 +348,7 @@ def diagnose(data: Recording | Path | str | None = None, names: Sequence[str] | 
             after = assess_adequacy(best.fit)
             best.share = removed_share(_disagreement(adequacy), _disagreement(after))
             if not best.named:
-                diagnosis.partial = best
+                diagnosis.partial = best if best.significant else None
                 break
             diagnosis.stages.append(Stage(best, after, predict(best.fit), rivals(best, left[1:])))
             current, adequacy = best.fit, after
