@@ -984,6 +984,8 @@ def main(argv=None):
                         '(without it --out is started afresh)')
     parser.add_argument('--report-only', action='store_true', help='write --doc from --out, run nothing')
     parser.add_argument('--case', type=int, metavar='SEED', help='run the case of SEED alone, print its result')
+    parser.add_argument('--seeds', type=lambda text: [int(s) for s in text.split(',') if s.strip()], metavar='S,S,...',
+                        help='the cases of these seeds instead of --first-seed/--cases (a rerun of some)')
     parser.add_argument('--duration', type=float, default=DURATION, help=f'record length in s (default {DURATION:g})')
     parser.add_argument('--code', default='HEAD', metavar='REVISION',
                         help='the suite\'s code to measure: a git revision (default HEAD: its committed packages and '
@@ -1002,7 +1004,7 @@ def main(argv=None):
               f'{case["rate"] / 1000:g} kHz -> {_summary(r)}; outcome: {outcome(r)}; '
               f'{"right" if success(r) else "MISS"}', file=sys.stderr)
         return 0 if not r.get('error') else 1
-    seeds = list(range(args.first_seed, args.first_seed + args.cases))
+    seeds = args.seeds or list(range(args.first_seed, args.first_seed + args.cases))
     if args.report_only:
         results = _read(args.out)
     else:
