@@ -344,6 +344,10 @@ def diagnose(data: Recording | Path | str | None = None, names: Sequence[str] | 
             # error is (a current sensor's 50 mA offset: 2.5 times the floor, 78 % of the error, 10 of 10 blocks)
             if best is None or (all(a.adequate for a in adequacy.values()) and best.score < MOST):
                 break
+            if best.score < MIN_SCORE:   # it matters only if it removes most of the disagreement: see, unpolished
+                best.share = removed_share(_disagreement(adequacy), _disagreement(assess_adequacy(best.fit)))
+                if not best.significant:
+                    break
             best = polished(current, best)
             after = assess_adequacy(best.fit)
             best.share = removed_share(_disagreement(adequacy), _disagreement(after))
