@@ -311,8 +311,8 @@ def _minimum_distance(statistics, covariances, sample_period, start):
     best = best_fit([q0 / scale for q0 in starts])   # the constant as the physics fixes it
     if best is not None and offset is not None:      # and free, kept where it is better by far
         loose = best_fit([np.append(z0, 0.0) for z0 in (best.x, starts[0] / scale)])
-        spread = 2.0 * loose.cost / max(len(theta) - n - 1, 1) if loose is not None else np.inf
-        if best.cost - loose.cost > 0.5 * OFFSET_EVIDENCE * max(spread, 1.0):
+        spread = None if loose is None else 2.0 * loose.cost / max(len(theta) - n - 1, 1)   # chi-square per dof
+        if loose is not None and best.cost - loose.cost > 0.5 * OFFSET_EVIDENCE * max(spread, 1.0):
             best = loose
     try:
         j = jacobian(best.x)
