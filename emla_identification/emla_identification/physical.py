@@ -309,8 +309,10 @@ def _minimum_distance(statistics, covariances, sample_period, start):
         return best
 
     best = best_fit([q0 / scale for q0 in starts])   # the constant as the physics fixes it
-    if best is not None and offset is not None:      # and free, kept where it is better by far
-        loose = best_fit([np.append(z0, 0.0) for z0 in (best.x, starts[0] / scale)])
+    # and free, kept where it is better by far (it cannot gain more than the whole misfit: no try when that is small)
+    if best is not None and offset is not None and best.cost > 0.5 * OFFSET_EVIDENCE:
+        # from the given start alone (online, each frame: one more fit, not two), else also from the fixed one's
+        loose = best_fit([np.append(z0, 0.0) for z0 in ([] if start is not None else [best.x]) + [starts[0] / scale]])
         spread = None if loose is None else 2.0 * loose.cost / max(len(theta) - n - 1, 1)   # chi-square per dof
         if loose is not None and best.cost - loose.cost > 0.5 * OFFSET_EVIDENCE * max(spread, 1.0):
             best = loose
