@@ -56,7 +56,7 @@ def test_cli_on_the_example_bag(tmp_path):
     assert out.returncode == 0, out.stderr
     result = json.loads((tmp_path / 'd.json').read_text())
     assert {'missing_effect', 'candidates', 'gap_before', 'gap_after', 'added_parameters'} <= set(result)
-    assert result['missing_effect'] == 'coulomb_friction'
+    assert result['missing_effect'] == 'coulomb_friction' and result['warnings'] == []   # a plausible actuator
     assert result['added_parameters']['coulomb_force'] == pytest.approx(1.0, rel=0.1)
     assert result['gap_after']['position'] < 0.5 * result['gap_before']['position']
     for candidate in result['candidates']:

@@ -16,7 +16,6 @@ from emla_cli.cli import main
 from emla_core.data import load
 from emla_core.errors import InputError
 from emla_identification.arx import identify_arx
-from emla_identification.discrepancy import diagnose
 from emla_identification.greybox import identify, parameter_scales, unit_scales
 from emla_identification.plausibility import plausibility_warnings, unit_flag
 from emla_identification.rls import RecursiveLeastSquares, forgetting_factor
@@ -100,7 +99,6 @@ def test_clean_data_give_no_warning(clean, tmp_path, capsys):
     for recording in records:
         result = identify(recording)
         assert plausibility_warnings(result.parameters, result.std, recording) == [], recording.source
-    assert diagnose(records[0]).warnings == []
 
 
 @pytest.mark.parametrize('flipped', list(FLIPS))

@@ -131,7 +131,7 @@ def test_a_strong_friction_closes_the_force_balance_with_its_level_within_its_si
 
 
 def test_the_cli_gives_the_json_and_the_moving_coil_points_at_the_solenoid(tmp_path, capsys):
-    recording, _ = generator.record(duration=2.0, rate=5000.0, seed=4, params={'friction_force': 0.1})
+    recording, _ = generator.record(duration=1.0, rate=5000.0, seed=4, params={'friction_force': 0.1})
     path = tmp_path / 'valve.csv'
     write_csv(recording, path)
     assert main(['discrepancy', str(path), '--actuator', 'solenoid', '--json', str(tmp_path / 's.json'),
@@ -149,7 +149,7 @@ def test_the_cli_gives_the_json_and_the_moving_coil_points_at_the_solenoid(tmp_p
     assert main(['discrepancy', str(path), '--actuator', 'solenoid', '--report', str(tmp_path / 'r')]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and '--report applies to the moving coil' in err[0]
-    clean, _ = generator.record(duration=2.0, rate=5000.0, seed=3)   # the valve as the moving coil sees it
+    clean, _ = generator.record(duration=1.0, rate=5000.0, seed=3)   # the valve as the moving coil sees it
     write_csv(clean, tmp_path / 'clean.csv')
     assert main(['discrepancy', str(tmp_path / 'clean.csv'), '--json', str(tmp_path / 'm.json')]) == 0
     moving = json.loads((tmp_path / 'm.json').read_text())

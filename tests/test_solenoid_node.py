@@ -42,11 +42,19 @@ def _played(bag, tmp_path, ros_env, **parameters):
     return next(yaml.safe_load_all(out))
 
 
-def test_the_identifier_node_follows_a_solenoids_resistance(tmp_path, ros_env):
-    bag, model = tmp_path / 'valve', tmp_path / 'valve.yaml'
+@pytest.fixture(scope='module')
+def valve(tmp_path_factory):
+    """(bag, model file, identify's JSON) of a simulated valve (1 s), as the command line makes them."""
+    where = tmp_path_factory.mktemp('valve')
+    bag, model, fit = where / 'valve', where / 'valve.yaml', where / 'fit.json'
     for argv in (['simulate', '--actuator', 'solenoid', '--duration', '1', '--bag', bag],
-                 ['identify', bag, '--actuator', 'solenoid', '--model-out', model]):
+                 ['identify', bag, '--actuator', 'solenoid', '--model-out', model, '--json', fit]):
         subprocess.run([EMLA, *map(str, argv)], check=True, capture_output=True, timeout=120)
+    return bag, model, fit
+
+
+def test_the_identifier_node_follows_a_solenoids_resistance(tmp_path, ros_env, valve):
+    bag, model, _ = valve
     online = _played(bag, tmp_path, ros_env, model_file=str(model))
     assert online['names'] == ['resistance']
     recording = read_bag(bag).recording
@@ -56,11 +64,8 @@ def test_the_identifier_node_follows_a_solenoids_resistance(tmp_path, ros_env):
     assert online['values'][0] == pytest.approx(6.0, rel=1e-3)   # the simulated valve's R
 
 
-def test_the_identifier_node_estimates_a_solenoids_position_from_its_coil(tmp_path, ros_env):
-    bag, model, fit = tmp_path / 'valve', tmp_path / 'valve.yaml', tmp_path / 'fit.json'
-    for argv in (['simulate', '--actuator', 'solenoid', '--duration', '1', '--bag', bag],
-                 ['identify', bag, '--actuator', 'solenoid', '--model-out', model, '--json', fit]):
-        subprocess.run([EMLA, *map(str, argv)], check=True, capture_output=True, timeout=120)
+def test_the_identifier_node_estimates_a_solenoids_position_from_its_coil(tmp_path, ros_env, valve):
+    bag, model, fit = valve
     _, noise = observer_model(json.loads(fit.read_text()))
     params = tmp_path / 'identifier.yaml'
     params.write_text(yaml.safe_dump({'/emla/identifier': {'ros__parameters': {

@@ -10,8 +10,6 @@ from pathlib import Path
 from emla_core.bag.report import read_warnings
 from emla_core.errors import InputError
 from emla_core.parameters import FAMILIES
-from emla_identification.plausibility import plausibility_warnings
-from emla_identification.streaming import read_record
 
 from .inputs import DATA_HELP, add_data_arguments, foreign, load_data, understood, unknown_figures, warn
 from .numbers import add_number
@@ -131,9 +129,11 @@ def run(args):
             result, plot, identified = _with_effects(structure, recording, args)
             trajectory, fit = None, []
         else:
+            from emla_identification.streaming import read_record
             recording, parts = read_record(args.data, lambda path: load_data(args), plain=not foreign(args))
             result, plot, identified, trajectory, fit = _greybox(recording, parts, model,
                                                                  _memory(args, forgetting, recording), args)
+    from emla_identification.plausibility import plausibility_warnings
     slips = [] if model == 'arx' else plausibility_warnings(result['parameters'], result['std'], recording)
     found = slips or fit   # a slip the plausibility checks name is the root cause of any misfit
     if fit and not slips and result.get('model') == 'full' and parts is None:   # another actuator family's record?
