@@ -1,14 +1,18 @@
 """The discrepancy workflow's acceptance of a candidate (issue 22): a significant candidate that removes most of
 the held-out one-step error is named, the share of the disagreement it removes stays within [-100 %, 100 %],
 and no output holds NaN or an impossible percentage. Data: the independent RK4 plant (tests/independent_plant.py)
-with the issue's pairs of hidden effects."""
+with the issue's pairs of hidden effects; a parameter the data resolve at a sign physics forbids is held at its
+bound."""
 import json
 import re
 
 import pytest
 from independent_plant import make_effect, record
 
-from emla_identification.discrepancy.workflow import diagnose, removed_share
+from emla_core.physics.candidate import CANDIDATES
+from emla_identification.discrepancy.data import Data
+from emla_identification.discrepancy.fit import fit
+from emla_identification.discrepancy.workflow import assess, diagnose, removed_share
 
 PERCENT = re.compile(r'(-?\d+(?:\.\d+)?) %')
 
@@ -55,3 +59,18 @@ def test_a_continuous_setting_is_refined_between_its_grid_points():
     assert effect['effect'] == 'drive_voltage_error'
     assert abs(effect['parameters']['dead_time_drop'] - 0.6) < 0.01
     assert result['disagreement']['electrical']['ratio'] < 6.0
+
+
+def test_a_parameter_resolved_at_a_forbidden_sign_is_held_at_its_bound_and_the_rest_refitted():
+    """A 0.2 A current-sensor offset beside a force constant varying over the stroke (sweep seed 236): free, the
+    drive's dead-time drop came out -3.8 V (it took up Km(x) in the back-EMF) and the candidate was rejected, so
+    nothing was named. Held at zero, the bound its sign allows, the offset alone reads the sensor's within 3 sigma."""
+    recording, _ = record(duration=1.5, seed=4, effects={
+        'current_sensor_offset': {'offset': -0.2},
+        'force_constant_variation': {'slope': -14.0, 'curvature': -1.4e4, 'center': 1.2e-3}})
+    assessment = assess(fit(Data.from_recording(recording)), CANDIDATES['drive_voltage_error']())
+    assert assessment.fit.candidates[-1].pinned == ('dead_time_drop',) and 'held at 0' in assessment.evidence
+    assert assessment.significant and assessment.plausible
+    assert assessment.parameters['dead_time_drop'] == (0.0, 0.0)
+    offset, std = assessment.parameters['equivalent_current_offset']
+    assert abs(offset + 0.2) < 3.0 * std < 1e-3

@@ -65,6 +65,13 @@ class Candidate:
     signs: ClassVar[tuple] = ()        # per parameter: +1 / -1 when physics fixes its sign, 0 when it does not
 
     scale: ClassVar[str | None] = None   # a setting searched on a grid, then refined continuously (at())
+    # parameters held at zero, the bound their sign allows, because the data asked for the other sign (the
+    # workflow's constrained refit); kw_only, so that subclasses' fields may go without defaults
+    pinned: tuple = dataclasses.field(default=(), kw_only=True, repr=False, compare=False)
+
+    def free(self):
+        """Per parameter: 1.0 where it is fitted, 0.0 where it is pinned (its columns are zeroed)."""
+        return np.array([name not in self.pinned for name in self.parameters], dtype=float)
 
     def variants(self, data):
         """Configurations to search on these data (each a Candidate); default: this one."""

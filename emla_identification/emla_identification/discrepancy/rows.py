@@ -139,7 +139,7 @@ class Rows:
                 - np.tensordot(self._weights('voltage_gains'), voltage, 1)
             if flux is not None:
                 block = block - np.tensordot(self.voltage_gains, flux, 1)
-            blocks.append(block)
+            blocks.append(block * candidate.free())
         return np.hstack(blocks)
 
     def _pieces(self, pieces):

@@ -43,7 +43,7 @@ the final model is the nominal one with all of them, re-identified jointly.
 """
 import functools
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -132,6 +132,9 @@ class Assessment:
         equations = ', '.join(f'{EQUATION[k]} {100 * v:.1f} %' for k, v in self.per_equation.items())
         partial = (f'; a partial match: removes only {100 * self.share:.0f} % of the disagreement'
                    if self.significant and not self.named and np.isfinite(self.share) else '')
+        held = self.fit.candidates[-1].pinned
+        if held:
+            params += f' ({", ".join(held)} held at 0: the data asked for a sign physics forbids)'
         return (f'{params or "no parameters"}{f" ({settings})" if settings else ""}; removes {equations} of the '
                 f'held-out one-step error; better in {self.blocks_improved}/{FOLDS} held-out blocks'
                 f'{"" if self.plausible else "; parameter of the wrong sign"}{partial}')
@@ -449,7 +452,26 @@ def assess(base, candidate):
             again = _best_variant(base, variants, start)
             result = min((result, fit(again.realigned(base.data), base.candidates + (again,), base, about=start)),
                          key=_heldout_total)
-    return _judged(base, result)
+    return _within_signs(base, _judged(base, result))
+
+
+def _within_signs(base, assessment):
+    """The assessment refitted with the parameters it resolves at a sign physics forbids held at zero (pinned), the
+    bound they cross, while some are and others stay free; itself when none are. The constrained optimum lies on
+    the bound: a dead-time drop made negative to take up a force constant's variation in the back-EMF is no dead
+    time, and the offset beside it may still be one; a friction's contact damping made negative by a breakaway
+    above the sliding level leaves the Coulomb level, then the Stribeck candidate, to explain it."""
+    while not assessment.plausible:
+        result = assessment.fit
+        best, part = result.candidates[-1], result.added_slices()[-1][1]
+        wrong = tuple(name for name, sign, value, std in zip(best.parameters, best.signs, result.added[part],
+                                                             result.added_std[part])
+                      if sign * value < 0 and abs(value) >= MIN_T * std)
+        if len(best.pinned) + len(wrong) >= len(best.parameters):
+            break
+        pinned = replace(best, pinned=best.pinned + wrong)
+        assessment = _judged(base, fit(pinned.realigned(base.data), base.candidates + (pinned,), base))
+    return assessment
 
 
 def polished(base, assessment):
@@ -474,7 +496,7 @@ def _judged(base, result):
     part = result.added_slices()[-1][1]
     values, stds = result.added[part], result.added_std[part]
     parameters = best.reported(values, stds, result.parameters)
-    resolved = not len(values) or bool(np.any(np.abs(values) >= MIN_T * stds))
+    resolved = not len(values) or bool(np.any((np.abs(values) >= MIN_T * stds)[best.free() > 0]))
     # a sign physics forbids, on a parameter the data resolve (an unresolved one's sign is the noise's)
     plausible = all(sign * value >= 0 or abs(value) < MIN_T * std for sign, value, std in
                     zip(best.signs, values, stds))
