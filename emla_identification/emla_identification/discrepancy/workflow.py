@@ -32,7 +32,8 @@ is significant, which it is when
      jackknife, again robust to coloured residuals; a delay has no continuous parameter), and
   4. those it resolves (MIN_T sigmas from zero) have the sign physics gives them (Candidate.signs: friction
      opposes motion, heating raises R, saturation lowers L; a stiffness may have either sign): a wrong sign
-     means the term is patching some other misfit.
+     means the term is patching some other misfit, so such a parameter is held at zero, the bound it crosses
+     (Candidate.pinned), and the rest refitted and judged again (_within_signs).
 Fitting noise cannot pass 1 and 2 together: a term that only fits noise predicts held-out blocks worse.
 A significant candidate is named if it removes most (MOST) of the held-out one-step error, or if, added, it
 removes at least MIN_SHARE of the disagreement left (the low-band residual power above the noise floor, in floor
@@ -127,14 +128,13 @@ class Assessment:
 
     @property
     def evidence(self):
-        params = '; '.join(f'{k} = {_format(v, s)}' for k, (v, s) in self.parameters.items())
+        held = self.fit.candidates[-1].pinned
+        params = '; '.join(f'{k} held at 0 (the data asked for a sign physics forbids)' if k in held else
+                           f'{k} = {_format(v, s)}' for k, (v, s) in self.parameters.items())
         settings = ', '.join(f'{k} {_setting(v)}' for k, v in self.settings.items() if isinstance(v, (int, float)))
         equations = ', '.join(f'{EQUATION[k]} {100 * v:.1f} %' for k, v in self.per_equation.items())
         partial = (f'; a partial match: removes only {100 * self.share:.0f} % of the disagreement'
                    if self.significant and not self.named and np.isfinite(self.share) else '')
-        held = self.fit.candidates[-1].pinned
-        if held:
-            params += f' ({", ".join(held)} held at 0: the data asked for a sign physics forbids)'
         return (f'{params or "no parameters"}{f" ({settings})" if settings else ""}; removes {equations} of the '
                 f'held-out one-step error; better in {self.blocks_improved}/{FOLDS} held-out blocks'
                 f'{"" if self.plausible else "; parameter of the wrong sign"}{partial}')
@@ -467,7 +467,7 @@ def _within_signs(base, assessment):
         wrong = tuple(name for name, sign, value, std in zip(best.parameters, best.signs, result.added[part],
                                                              result.added_std[part])
                       if sign * value < 0 and abs(value) >= MIN_T * std)
-        if len(best.pinned) + len(wrong) >= len(best.parameters):
+        if not wrong or len(best.pinned) + len(wrong) >= len(best.parameters):
             break
         pinned = replace(best, pinned=best.pinned + wrong)
         assessment = _judged(base, fit(pinned.realigned(base.data), base.candidates + (pinned,), base))
