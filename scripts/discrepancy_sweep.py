@@ -971,6 +971,14 @@ def write_report(results, path=DEFAULT_DOC, command=None):
 
 
 # ---------------------------------------------------------------------------------------------- the command
+def seed_list(text):
+    """--seeds: whole numbers separated by commas."""
+    try:
+        return [int(s) for s in text.split(',') if s.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'{text!r} is not whole numbers separated by commas') from None
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0],
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -984,7 +992,7 @@ def main(argv=None):
                         '(without it --out is started afresh)')
     parser.add_argument('--report-only', action='store_true', help='write --doc from --out, run nothing')
     parser.add_argument('--case', type=int, metavar='SEED', help='run the case of SEED alone, print its result')
-    parser.add_argument('--seeds', type=lambda text: [int(s) for s in text.split(',') if s.strip()], metavar='S,S,...',
+    parser.add_argument('--seeds', type=seed_list, metavar='S,S,...',
                         help='the cases of these seeds instead of --first-seed/--cases (a rerun of some)')
     parser.add_argument('--duration', type=float, default=DURATION, help=f'record length in s (default {DURATION:g})')
     parser.add_argument('--code', default='HEAD', metavar='REVISION',
