@@ -464,9 +464,7 @@ def _within_signs(base, assessment):
     while not assessment.plausible:
         result = assessment.fit
         best, part = result.candidates[-1], result.added_slices()[-1][1]
-        wrong = tuple(name for name, sign, value, std in zip(best.parameters, best.signs, result.added[part],
-                                                             result.added_std[part])
-                      if sign * value < 0 and abs(value) >= MIN_T * std)
+        wrong = _forbidden(best, result.added[part], result.added_std[part])
         if not wrong or len(best.pinned) + len(wrong) >= len(best.parameters):
             break
         pinned = replace(best, pinned=best.pinned + wrong)
@@ -497,12 +495,16 @@ def _judged(base, result):
     values, stds = result.added[part], result.added_std[part]
     parameters = best.reported(values, stds, result.parameters)
     resolved = not len(values) or bool(np.any((np.abs(values) >= MIN_T * stds)[best.free() > 0]))
-    # a sign physics forbids, on a parameter the data resolve (an unresolved one's sign is the noise's)
-    plausible = all(sign * value >= 0 or abs(value) < MIN_T * std for sign, value, std in
-                    zip(best.signs, values, stds))
     return Assessment(best.effect_name(values), result, float(sum(per_equation)),
                       dict(zip(kinds, map(float, per_equation))), int(np.sum(gain.sum(axis=1) > 0)),
-                      parameters, best.settings(), resolved, plausible)
+                      parameters, best.settings(), resolved, not _forbidden(best, values, stds))
+
+
+def _forbidden(candidate, values, stds):
+    """The candidate's parameters the data resolve (MIN_T sigmas from zero) at a sign physics forbids (an
+    unresolved one's sign is the noise's)."""
+    return tuple(name for name, sign, value, std in zip(candidate.parameters, candidate.signs, values, stds)
+                 if not (sign * value >= 0 or abs(value) < MIN_T * std))   # (a NaN is forbidden too)
 
 
 def _best_variant(base, variants, about):
