@@ -97,9 +97,11 @@ def test_compensating_the_friction_and_spring_estimated_online_halves_the_tracki
     rms = {case: m['rms_tracking_error'] for case, m in result.metrics.items()}
     assert rms['adaptive_augmented_model'] <= 0.5 * rms['adaptive_nominal_model'], rms
     online = result.compensated_effects['adaptive_augmented_model']   # the final online estimates
-    assert online['coulomb_force'] == pytest.approx(1.0, rel=0.1)
-    assert online['spring_stiffness'] == pytest.approx(1500.0, rel=0.1)
-    assert 0.0 < online['coulomb_force_std'] < 0.05 and 0.0 < online['spring_stiffness_std'] < 50.0
+    for name, truth in (('coulomb_force', 1.0), ('spring_stiffness', 1500.0)):
+        value, std = online[name], online[f'{name}_std']
+        assert value == pytest.approx(truth, rel=0.1), name
+        # within 3 sigma, sigma under 5 % (it carries the fit's misfit: 1 s of closed loop, the noise fed back)
+        assert abs(value - truth) < 3 * std and 0.0 < std < 0.05 * truth, name
     assert result.to_json()['compensated_effects'] == result.compensated_effects
     assert 'adaptive_nominal_model' not in result.compensated_effects
 

@@ -14,6 +14,7 @@ The fit starts from the coefficients' meaning for a short sample period (initial
 """
 import math
 
+import numba
 import numpy as np
 from scipy.linalg import block_diag
 from scipy.optimize import least_squares
@@ -32,6 +33,7 @@ COIL_PARAMETERS = 5     # R, L, Km, m, B: the parameters the coil regressions de
 DECAYS = (0.1, 0.5, 2.0, 8.0, 32.0)   # R Ts / L of the fit's further starts (starts_for)
 MASS_FACTORS = (0.1, 1.0, 10.0)      # and their masses, over the guess's
 RESOLUTION = 1e-7                    # relative floor of a row's residual (_white_covariance)
+RUNAWAY = 1e6                        # a coil parameter this many times its start's has no finite optimum (_ran_away)
 OFFSET_EVIDENCE = 25.0               # chi-square a free electrical constant must gain, in misfit units
 
 
@@ -50,19 +52,43 @@ def transition(q, sample_period):
 
 def exponential(a, terms=18):
     """expm of a stack of small matrices (..., n, n): scaled to norm 1/2, a Taylor series of `terms` terms (its
-    remainder below 1e-22), squared back. scipy.linalg.expm per call costs some 100 times more for 5 x 5."""
-    norm = np.max(np.sum(np.abs(a), axis=-1), axis=-1, initial=0.0)   # the infinity norm of each matrix
-    squarings = np.maximum(0, np.ceil(np.log2(np.maximum(norm, 1e-300) / 0.5))).astype(int)
-    top = int(squarings.max(initial=0))
-    scaled = a / (2.0 ** squarings)[..., None, None]
-    identity = np.broadcast_to(np.eye(a.shape[-1]), a.shape)
-    e = identity.copy()
-    for k in range(terms, 0, -1):   # Horner: I + a/1 (I + a/2 (I + ...))
-        e = identity + scaled @ e / k
-    for step in range(top):   # each matrix squared as often as it was halved
-        more = (squarings > step)[..., None, None]
-        e = np.where(more, e @ e, e)
-    return e
+    remainder below 1e-22), squared back. scipy.linalg.expm per call costs some 100 times more for 5 x 5, and numpy's
+    stacked products some 5 times more than these loops (the minimum-distance fit takes thousands of calls)."""
+    a = np.asarray(a, dtype=float)
+    flat = np.ascontiguousarray(a.reshape((-1,) + a.shape[-2:]))
+    return _exponentials(flat, terms).reshape(a.shape)
+
+
+@numba.njit(cache=True)
+def _exponentials(a, terms):
+    out = np.empty_like(a)
+    n = a.shape[-1]
+    for i in range(a.shape[0]):
+        norm = 0.0   # the infinity norm
+        for r in range(n):
+            norm = max(norm, np.sum(np.abs(a[i, r])))
+        squarings = max(0, int(math.ceil(math.log2(max(norm, 1e-300) / 0.5))))
+        scaled = a[i] / 2.0 ** squarings
+        e = np.eye(n)
+        for k in range(terms, 0, -1):   # Horner: I + a/1 (I + a/2 (I + ...))
+            e = np.eye(n) + _product(scaled, e) / k
+        for _ in range(squarings):
+            e = _product(e, e)
+        out[i] = e
+    return out
+
+
+@numba.njit(cache=True)
+def _product(a, b):
+    """a @ b of small square matrices, without a BLAS call per product."""
+    n = a.shape[0]
+    out = np.zeros((n, n))
+    for r in range(n):
+        for k in range(n):
+            x = a[r, k]
+            for c in range(n):
+                out[r, c] += x * b[k, c]
+    return out
 
 
 def input_gains(kind, q, sample_period, motion=None):
@@ -280,7 +306,8 @@ def _minimum_distance(statistics, covariances, sample_period, start):
     n = len(parameter_names(statistics))
     if not (starts and np.all(np.isfinite(theta)) and np.all(np.isfinite(whiten))):
         return np.full(n, np.nan), np.full((n, n), np.nan)
-    scale = np.where(np.arange(n) < (0 if 'force' in statistics else COIL_PARAMETERS), np.abs(starts[0]), 1.0)
+    coil = 0 if 'force' in statistics else COIL_PARAMETERS   # the parameters scaled by the first start's
+    scale = np.where(np.arange(n) < coil, np.abs(starts[0]), 1.0)
     scale[scale == 0.0] = 1.0
     offset = _offset_column(statistics)
     free = whiten[:, [] if offset is None else [offset]]   # the free constant's column in the residual
@@ -304,7 +331,7 @@ def _minimum_distance(statistics, covariances, sample_period, start):
                 fit = least_squares(residual, z0, jac=jacobian, method='lm', xtol=1e-12, ftol=1e-12)
             except ValueError:   # a start where the model is not finite
                 continue
-            if np.isfinite(fit.cost) and (best is None or fit.cost < best.cost):
+            if np.isfinite(fit.cost) and not _ran_away(fit.x[:coil]) and (best is None or fit.cost < best.cost):
                 best = fit
         return best
 
@@ -321,7 +348,17 @@ def _minimum_distance(statistics, covariances, sample_period, start):
         covariance = np.linalg.inv(j.T @ j)[:n, :n]
     except (AttributeError, ValueError, np.linalg.LinAlgError):   # (no start converged: best is None)
         return np.full(n, np.nan), np.full((n, n), np.nan)
-    return best.x[:n] * scale, covariance * np.outer(scale, scale)
+    # a Birge ratio: coefficients that g(q) meets only beyond their covariance (a closed loop feeding the noise
+    # back into the voltage, an effect the model lacks) spread q more than (J' W J)^-1 says
+    misfit = 2.0 * best.cost / max(len(theta) - len(best.x), 1)
+    return best.x[:n] * scale, max(misfit, 1.0) * covariance * np.outer(scale, scale)
+
+
+def _ran_away(z):
+    """Whether the coil's parameters z, scaled by the first start's, left that scale by more than RUNAWAY: on a
+    record the model cannot fit (samples misaligned), the misfit may fall without end along a line where R, Km, m
+    grow together, and where Levenberg-Marquardt stops on it (R = 4e11 ohm) is decided by rounding: no estimate."""
+    return bool(np.max(np.abs(z), initial=0.0) > RUNAWAY)
 
 
 def _offset_column(statistics):
