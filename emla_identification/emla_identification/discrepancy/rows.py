@@ -248,7 +248,8 @@ class Rows:
         between = self.data.between(PIECES)
         start = self.phi[rows, 0] if current is None else current
         end = self.y[rows] if current is None else self._step(rows, start)
-        return [State(self.data, k - 1, position=between['position'][k - 1, m], velocity=between['velocity'][k - 1, m],
+        position, velocity = between['position'][k - 1], between['velocity'][k - 1]   # one gather, then views
+        return [State(self.data, k - 1, position=position[:, m], velocity=velocity[:, m],
                       current=start + (m + 0.5) / PIECES * (end - start), voltage=self.phi[rows, 1])
                 for m in range(PIECES)]
 
@@ -261,10 +262,12 @@ class Rows:
         between = self.data.between(MECHANICAL_PIECES)
         states = []
         for j in (k - 1, k):
+            position, velocity = between['position'][j], between['velocity'][j]   # one gather, then views
+            ends = {name: (values[j], values[j + 1])
+                    for name, values in self.data.signals.items() if name != 'position'}
             for m in range(MECHANICAL_PIECES):
                 share = (m + 0.5) / MECHANICAL_PIECES
-                others = {name: (values[j] if name == 'voltage' else (1.0 - share) * values[j] + share * values[j + 1])
-                          for name, values in self.data.signals.items() if name != 'position'}
-                states.append(State(self.data, j, position=between['position'][j, m],
-                                    velocity=between['velocity'][j, m], **others))
+                others = {name: first if name == 'voltage' else (1.0 - share) * first + share * last
+                          for name, (first, last) in ends.items()}
+                states.append(State(self.data, j, position=position[:, m], velocity=velocity[:, m], **others))
         return states
