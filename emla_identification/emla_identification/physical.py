@@ -33,7 +33,7 @@ COIL_PARAMETERS = 5     # R, L, Km, m, B: the parameters the coil regressions de
 DECAYS = (0.1, 0.5, 2.0, 8.0, 32.0)   # R Ts / L of the fit's further starts (starts_for)
 MASS_FACTORS = (0.1, 1.0, 10.0)      # and their masses, over the guess's
 RESOLUTION = 1e-7                    # relative floor of a row's residual (_white_covariance)
-MAX_EVALUATIONS = 200                # a start's fit: most converge in under 20, a start running away takes 600
+MAX_EVALUATIONS = 100                # a start's fit: most converge in under 20, one running away takes 600
 RUNAWAY = 1e6                        # a coil parameter this many times its start's has no finite optimum (_ran_away)
 OFFSET_EVIDENCE = 25.0               # chi-square a free electrical constant must gain, in misfit units
 
