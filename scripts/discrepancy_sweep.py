@@ -56,18 +56,9 @@ RATES = (2000.0, 3000.0, 5000.0, 10000.0, 20000.0)   # Hz; the nominal rows are 
 LOW_RATE = 5000.0
 NOMINAL = ('resistance', 'inductance', 'emf_constant', 'mass', 'damping', 'load_force')
 
-# The actuators the parameters are drawn around (SI: ohm, H, V s/m, kg, N s/m, N). The independent plant's
-# loop (PID, KP 12000 V/m, KD 25 V s/m) holds each of them within +-30 %.
-ACTUATORS = {
-    'table1': {'resistance': 4.0, 'inductance': 1.6e-3, 'emf_constant': 10.8, 'mass': 0.036, 'damping': 2.0,
-               'load_force': 0.0},   # the paper's Table 1 (tests/independent_plant.NOMINAL)
-    'independent_data': {'resistance': 3.2, 'inductance': 2.1e-3, 'emf_constant': 8.5, 'mass': 0.05,
-                         'damping': 3.0, 'load_force': 0.0},   # tests/independent_data.TRUTH
-    'voice_coil': {'resistance': 6.0, 'inductance': 0.9e-3, 'emf_constant': 6.0, 'mass': 0.02, 'damping': 1.5,
-                   'load_force': 0.0},   # a small, fast voice coil (L/R 0.15 ms)
-    'linear_motor': {'resistance': 2.5, 'inductance': 3.0e-3, 'emf_constant': 15.0, 'mass': 0.12, 'damping': 5.0,
-                     'load_force': 0.0},  # a heavier moving-coil motor (L/R 1.2 ms)
-}
+# The actuators the parameters are drawn around (SI: ohm, H, V s/m, kg, N s/m, N), each held by the independent
+# plant's loop within +-30 %: independent_plant.ACTUATORS (the tests draw around them too).
+from independent_plant import ACTUATORS  # noqa: E402  (tests/ is on the path from above)
 
 # Library effects of the independent plant and their strength knobs: the first parameter of each is drawn
 # log-uniformly within its range (a level u in [0, 1] maps to lo * (hi / lo)^u), the others as

@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 import pytest
+from independent_plant import ACTUATORS
 from independent_plant import random_parameters as independent_parameters
 from independent_plant import record as independent_record
 
@@ -19,9 +20,6 @@ from emla_identification.greybox import identify
 from emla_identification.online import OnlineIdentifier
 from emla_sim.datasets import TABLE2, closed_loop, force_driven, random_parameters
 from emla_sim.effects import ParameterChange
-
-VOICE_COIL = {'resistance': 6.0, 'inductance': 0.9e-3, 'emf_constant': 6.0, 'mass': 0.02, 'damping': 1.5,
-              'load_force': 0.0}
 
 
 def assert_close(parameters, truth, relative, load_force):
@@ -79,7 +77,7 @@ def test_a_current_sensor_offset_leaves_the_coil_and_mass_within_their_sigma_and
     constant I0 (1 - a) is one the physics cannot meet. Fixed to it, the fit gave R = 8.7e6 ohm and a negative
     inductance on the way (the issue-22 sweep's seed 110); freed, R, L, Km, m, B keep to their sigma, and the
     electrical equation's misfit is reported instead."""
-    params = independent_parameters(seed=110, base=VOICE_COIL)   # a small, fast voice coil (L/R 0.15 ms)
+    params = independent_parameters(seed=110, base=ACTUATORS['voice_coil'])   # a small, fast voice coil (L/R 0.15 ms)
     recording, _ = independent_record(1.0, params=params, effects=[('current_sensor_offset', {'offset': offset})],
                                       seed=3, sample_period=1.0 / rate)
     result = identify(recording, points=8)
