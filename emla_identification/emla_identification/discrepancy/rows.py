@@ -12,15 +12,16 @@ Gauss-Newton on the exact rows.
 
 A candidate's terms enter like the inputs whose place they take, through the gains of a voltage or a load force
 held over each interval the row spans (physical.input_gains): an extra voltage drop e as -e times the voltage's
-gain, a force f (opposing +x) as f times the load's gain, an extra inductance l as phi_k (dg/dL) l.
+gain, a force f (opposing +x) as f times the load's gain, an extra inductance l as the voltage l dI/dt it takes.
 
 - Electrical rows (the interval [t_k-1, t_k]): the terms at the middle of each of PIECES equal parts of the
   interval (the position and velocity of the cubic spline through the measured positions, the current going from
-  the interval's start to its end), each weighted by the row's gain of an input over that part
+  the interval's start to its end: linearly for a voltage term, along the model's own path for a force or an
+  inductance term, Rows._path), each weighted by the row's gain of an input over that part
   (physical.piece_gains): the row does not weigh an interval's parts equally (a voltage acts on I_k the more the
   later it comes, through L/R).
 - Mechanical rows (the intervals [t_k-1, t_k+1]): the terms at the middle of each of MECHANICAL_PIECES parts of
-  both intervals (the spline's position and velocity, the current or force linear between the samples), each
+  both intervals (the spline's position and velocity, the current as above, a measured force linear), each
   weighted by the row's gain of that part: for a free mass the triangle, otherwise the row's own kernel. A spring's
   k x or a force constant's Km(x) I under a loop hunting at a 2 kHz logger is far from linear between samples.
   The force regression (a measured force) is the triangle's over -m.
@@ -29,16 +30,16 @@ gain, a force f (opposing +x) as f times the load's gain, an extra inductance l 
   interval), through the same gains.
 """
 import functools
+from dataclasses import replace
 
 import numpy as np
 
 from emla_core.parameters import PARAMETER_NAMES
-from emla_identification.physical import MODEL_PARAMETERS, gains_jacobian, jacobian, piece_gains_jacobian
+from emla_identification.physical import MODEL_PARAMETERS, gains_jacobian, jacobian, piece_gains_jacobian, transition
 from emla_identification.regressors import instruments, rows
 
 from .data import PARTS, State, regression_rows
 
-FLUX_NODES = ((0.5 - 0.5 * 0.6 ** 0.5, 0.5, 0.5 + 0.5 * 0.6 ** 0.5), (5 / 18, 8 / 18, 5 / 18))   # Gauss-Legendre
 PIECES = 8   # parts of an electrical row's interval its terms are taken on, each at its middle (_electrical)
 MECHANICAL_PIECES = 4   # and of each of a mechanical row's two intervals (_samples)
 INSTRUMENT_LAG = 2   # rows: an electrical row's error holds the noise of samples k-1 and k; these hold k-3, k-2
@@ -66,6 +67,13 @@ def _linearised(kind, q0, sample_period):
 def _piece_gains(kind, q0, sample_period, pieces):
     """physical.piece_gains_jacobian at the model q0 (a tuple), kept for the Rows linearised about it."""
     return piece_gains_jacobian(kind, np.array(q0), sample_period, pieces)
+
+
+@functools.lru_cache(maxsize=64)
+def _within(q0, sample_period, pieces):
+    """(P, G, H) of the model q0 (a tuple) from an interval's start to each of 2 `pieces` + 1 equally spaced
+    times, its start to its end."""
+    return [transition(np.array(q0), sample_period * f) for f in np.linspace(0.0, 1.0, 2 * pieces + 1)]
 
 
 class Rows:
@@ -132,13 +140,11 @@ class Rows:
         """(n, sum of the candidates' parameters) columns at regression rows `rows`; `current`: the electrical
         rows' start currents to use instead of the measured ones (a prediction)."""
         blocks = [np.zeros((len(self.y[rows]), 0))]
-        for candidate, (voltage, load, flux) in zip(candidates, self._terms(candidates, rows, current)):
+        for candidate, (voltage, load) in zip(candidates, self._terms(candidates, rows, current)):
             between = candidate.force_between(self.data)
             block = (np.tensordot(self._weights('load_gains'), load, 1) if between is None
                      else self._between(between, rows, self._pieces(between.shape[1])[1])) \
                 - np.tensordot(self._weights('voltage_gains'), voltage, 1)
-            if flux is not None:
-                block = block - np.tensordot(self.voltage_gains, flux, 1)
             blocks.append(block * candidate.free())
         return np.hstack(blocks)
 
@@ -161,7 +167,7 @@ class Rows:
         the model through the input gains): the cross terms of the Gauss-Newton step about (q0, added)."""
         out = np.zeros((len(self.y), len(self.names)))
         start = 0
-        for candidate, (voltage, load, flux) in zip(candidates, self._terms(candidates, slice(None), None)):
+        for candidate, (voltage, load) in zip(candidates, self._terms(candidates, slice(None), None)):
             p = added[start:start + voltage.shape[-1]]
             start += len(p)
             between = candidate.force_between(self.data)
@@ -172,55 +178,47 @@ class Rows:
             for j in range(len(voltage)):
                 out += np.outer(load[j] @ p, self._weights('load_slopes')[j]) \
                     - np.outer(voltage[j] @ p, self._weights('voltage_slopes')[j])
-            for j in range(0 if flux is None else len(flux)):
-                out -= np.outer(flux[j] @ p, self.voltage_slopes[j])
         return out
 
     def _terms(self, candidates, rows, current):
         """Per candidate: (voltage terms, load-force terms) at each piece of the row (pieces x n x parameters, zero
-        where it has none, and the load's where it is given between the samples), and the mean over each interval
-        of the voltage its extra inductance takes, (intervals x n x parameters, or None)."""
-        pieces = self._electrical(rows, current) if self.kind == 'electrical' else self._samples(rows)
+        where it has none, and the load's where it is given between the samples). Force and inductance terms are
+        taken at the current along the model's path (_path), an extra inductance l(I, x) as the voltage l dI/dt
+        with the path's rate over the piece; voltage terms at the current linear in time."""
+        pieces, paths = self._electrical(rows, current) if self.kind == 'electrical' else self._samples(rows)
         out = []
         for c in candidates:
             shape = (len(pieces), len(pieces[0].index), len(c.parameters))
             voltage, load = np.zeros(shape), np.zeros(shape)
             between = c.force_between(self.data) is not None
             for j, state in enumerate(pieces):
-                e, f = c.voltage(state), None if between else c.force(state)
+                along = state if paths is None else replace(state, current=paths[0][j])   # on the model's path
+                e, f = c.voltage(state), None if between else c.force(along)
+                inductance = None if paths is None else c.inductance(along)
                 if e is not None:
                     voltage[j] = e.T
+                if inductance is not None:
+                    voltage[j] += (inductance * paths[1][j]).T
                 if f is not None:
                     load[j] = f.T
-            out.append((voltage, load, self._flux(c, rows, current) if self.kind != 'force' else None))
+            out.append((voltage, load))
         return out
 
-    def _flux(self, candidate, rows, current):
-        """The voltage an extra inductance l(I, x) takes, averaged over each interval the row spans (intervals x n
-        x parameters), or None: exactly the change of its flux linkage over the interval over Ts, the integral of
-        l dI between the interval's end currents (Gauss-Legendre, FLUX_NODES), however far l moves the
-        inductance (a saturating iron halves it) and however fast the current changes within the interval."""
+    def _path(self, j, start, end, pieces):
+        """(the current at the middle of each of `pieces` parts of the intervals [t_j, t_j+1], its mean rate over
+        each part): the model's own path from `start` under the interval's voltage (the coil's L/R bends it: at a
+        2 kHz logger a step's current rises mostly early in the interval), moved linearly in time to meet `end`.
+        Taken as linear instead, a saturating inductance's l dI/dt lands late in the interval, and the rows' unequal
+        weighting of its parts turns that into a bias of Km, m and B (7-30 sigma at 2-3 kHz; docs/physics.md 6.3).
+        A voltage term in the current (a dead-time drop) keeps the linear current: this path lacks the drop."""
         ts = self.data.sample_period
-        k = self.index[rows]
-        x, i = self.data.signals['position'], self.data.signals['current']
-        if self.kind == 'electrical':   # the interval [t_k-1, t_k]; in a prediction, its end is the model's step
-            start = self.phi[rows, 0] if current is None else current
-            end = self.y[rows] if current is None else self._step(rows, start)
-            ends = [(k - 1, start, end)]
-        else:
-            ends = [(k - 1, i[k - 1], i[k]), (k, i[k], i[k + 1])]
-        out = []
-        for j, first, last in ends:
-            total = 0.0
-            for node, weight in zip(*FLUX_NODES):
-                state = State(self.data, j, position=0.5 * (x[j] + x[j + 1]), velocity=(x[j + 1] - x[j]) / ts,
-                              current=first + node * (last - first))
-                inductance = candidate.inductance(state)
-                if inductance is None:
-                    return None
-                total = total + weight * inductance.T
-            out.append(total * ((last - first) / ts)[:, None])
-        return np.stack(out)
+        signals = self.data.signals
+        s = np.stack((start, signals['position'][j], self.data.velocity()[j]))
+        steps = _within(tuple(self.q0[:6]), ts, pieces)
+        u, load = signals['voltage'][j], self.q0[5]
+        model = np.array([p[0] @ s + g[0] * u + h[0] * load for p, g, h in steps])
+        path = model + np.linspace(0.0, 1.0, len(model))[:, None] * (end - model[-1])
+        return list(path[1::2]), list((path[2::2] - path[:-1:2]) * (pieces / ts))
 
     def _step(self, rows, start):
         """The model's I_k from I_k-1 = `start` (and the rows' other regressors)."""
@@ -239,11 +237,11 @@ class Rows:
         return gains[0] if electrical else gains.reshape((-1,) + gains.shape[2:])   # both intervals' parts in turn
 
     def _electrical(self, rows, current):
-        """[the states along the interval [t_k-1, t_k] at the middle of each of its PIECES parts]: the position and
-        velocity of the cubic spline through the measured positions there, the current going linearly from the
-        interval's start to its end (the measured one; in a prediction, the model's step), so that a term steep in
-        the current (a dead-time drop reversing within a few mA) is taken where it acts within the interval rather
-        than at its mean current."""
+        """([the states along the interval [t_k-1, t_k] at the middle of each of its PIECES parts], _path's currents
+        and rates there): the position and velocity of the cubic spline through the measured positions, the current
+        going linearly from the interval's start to its end (the measured one; in a prediction, the model's step),
+        so that a term steep in the current (a dead-time drop reversing within a few mA) is taken where it acts
+        within the interval rather than at its mean current."""
         k = self.index[rows]
         between = self.data.between(PIECES)
         start = self.phi[rows, 0] if current is None else current
@@ -251,23 +249,29 @@ class Rows:
         position, velocity = between['position'][k - 1], between['velocity'][k - 1]   # one gather, then views
         return [State(self.data, k - 1, position=position[:, m], velocity=velocity[:, m],
                       current=start + (m + 0.5) / PIECES * (end - start), voltage=self.phi[rows, 1])
-                for m in range(PIECES)]
+                for m in range(PIECES)], self._path(k - 1, start, end, PIECES)
 
     def _samples(self, rows):
-        """[the states at the middle of each of the MECHANICAL_PIECES parts of the intervals [t_k-1, t_k] and
-        [t_k, t_k+1], in turn]: the cubic spline's position and velocity, the current (or force) linear between
-        its samples, the voltage held. A force along the row is so taken where it acts, through the row's gain of
-        each part: a spring's k x is not linear between the samples of a loop hunting at a 2 kHz logger."""
+        """([the states at the middle of each of the MECHANICAL_PIECES parts of the intervals [t_k-1, t_k] and
+        [t_k, t_k+1], in turn], _path's currents and rates there or None for the force regression): the cubic
+        spline's position and velocity, the current (or force) linear between its samples, the voltage held. A
+        force along the row is so taken where it acts, through the row's gain of each part: a spring's k x is not
+        linear between the samples of a loop hunting at a 2 kHz logger."""
         k = self.index[rows]
         between = self.data.between(MECHANICAL_PIECES)
-        states = []
+        states, currents, rates = [], [], []
+        path = self.kind == 'mechanical'   # the force regression has no coil
         for j in (k - 1, k):
             position, velocity = between['position'][j], between['velocity'][j]   # one gather, then views
             ends = {name: (values[j], values[j + 1])
                     for name, values in self.data.signals.items() if name != 'position'}
+            if path:
+                more = self._path(j, *ends['current'], MECHANICAL_PIECES)
+                currents += more[0]
+                rates += more[1]
             for m in range(MECHANICAL_PIECES):
                 share = (m + 0.5) / MECHANICAL_PIECES
                 others = {name: first if name == 'voltage' else (1.0 - share) * first + share * last
                           for name, (first, last) in ends.items()}
                 states.append(State(self.data, j, position=position[:, m], velocity=velocity[:, m], **others))
-        return states
+        return states, ((currents, rates) if path else None)
