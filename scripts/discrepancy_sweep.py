@@ -56,9 +56,8 @@ RATES = (2000.0, 3000.0, 5000.0, 10000.0, 20000.0)   # Hz; the nominal rows are 
 LOW_RATE = 5000.0
 NOMINAL = ('resistance', 'inductance', 'emf_constant', 'mass', 'damping', 'load_force')
 
-# The actuators the parameters are drawn around (SI: ohm, H, V s/m, kg, N s/m, N), each held by the independent
-# plant's loop within +-30 %: independent_plant.ACTUATORS (the tests draw around them too).
-from independent_plant import ACTUATORS  # noqa: E402  (tests/ is on the path from above)
+# The actuators the parameters are drawn around: tests/actuators.py (no suite import: --code comes after it).
+from actuators import ACTUATORS  # noqa: E402  (tests/ is on the path from above)
 
 # Library effects of the independent plant and their strength knobs: the first parameter of each is drawn
 # log-uniformly within its range (a level u in [0, 1] maps to lo * (hi / lo)^u), the others as

@@ -52,17 +52,6 @@ SUBSTEPS = 4               # RK4 steps per sample (h = 25 us; the stiffest defau
 NOMINAL = {'resistance': 4.0, 'inductance': 1.6e-3, 'emf_constant': 10.8, 'mass': 0.036, 'damping': 2.0,
            'load_force': 0.0}
 
-# The actuators tests and the discrepancy sweep draw parameters around; the loop holds each within +-30 %.
-ACTUATORS = {
-    'table1': NOMINAL,
-    'independent_data': {'resistance': 3.2, 'inductance': 2.1e-3, 'emf_constant': 8.5, 'mass': 0.05,
-                         'damping': 3.0, 'load_force': 0.0},   # tests/independent_data.TRUTH
-    'voice_coil': {'resistance': 6.0, 'inductance': 0.9e-3, 'emf_constant': 6.0, 'mass': 0.02, 'damping': 1.5,
-                   'load_force': 0.0},   # a small, fast voice coil (L/R 0.15 ms)
-    'linear_motor': {'resistance': 2.5, 'inductance': 3.0e-3, 'emf_constant': 15.0, 'mass': 0.12, 'damping': 5.0,
-                     'load_force': 0.0},  # a heavier moving-coil motor (L/R 1.2 ms)
-}
-
 # PID on the sensed position (98 % of a 2.5 mm step in about 10 ms at NOMINAL, then a slow integral overshoot
 # of a few %; checked stable for random +-20 % parameter sets, alone and with all the effects at their
 # defaults combined).

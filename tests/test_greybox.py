@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 import pytest
-from independent_plant import ACTUATORS
+from actuators import ACTUATORS
 from independent_plant import random_parameters as independent_parameters
 from independent_plant import record as independent_record
 
