@@ -194,13 +194,17 @@ class Data:
         return replace(self, signals=signals, spare=spare, shaping=shaping, voltage_parts=parts)
 
     def velocity(self):
-        """Point velocity at every sample: five-point central difference (exact for cubic motion).
+        """Point velocity at every sample: five-point central difference (exact for cubic motion; kept: every
+        candidate column's current path starts from it, Rows._path). Read only.
 
         A wider smoothing fit would be biased by the jerk of the fast strokes (~1e6 m/s^3 at Table 1)."""
-        x = self.signals['position']
-        v = np.gradient(x, self.sample_period)
-        v[2:-2] = (x[:-4] - 8.0 * x[1:-3] + 8.0 * x[3:-1] - x[4:]) / (12.0 * self.sample_period)
-        return v
+        if '_velocity' not in self.__dict__:
+            x = self.signals['position']
+            v = np.gradient(x, self.sample_period)
+            v[2:-2] = (x[:-4] - 8.0 * x[1:-3] + 8.0 * x[3:-1] - x[4:]) / (12.0 * self.sample_period)
+            v.flags.writeable = False
+            self.__dict__['_velocity'] = v
+        return self.__dict__['_velocity']
 
     def state(self):
         """The measured State at every sample."""
