@@ -422,7 +422,8 @@ PACKAGES = ('emla_core', 'emla_identification', 'emla_sim')
 def code_snapshot(revision):
     """(commit, [paths]) of the suite's packages and tests/independent_plant.py at `revision`, exported once
     under out/sweep-code/COMMIT: others may reinstall .venv or edit the work tree while a sweep runs, and the
-    document names the commit it measured."""
+    document names the commit it measured. tests/actuators.py stays the work tree's: the cases are drawn from it
+    (before the code is chosen), and independent_plant reads its nominal set from the same module."""
     import shutil
     import tarfile
     import tempfile

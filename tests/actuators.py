@@ -4,7 +4,7 @@ chooses which code to measure (--code)."""
 
 ACTUATORS = {
     'table1': {'resistance': 4.0, 'inductance': 1.6e-3, 'emf_constant': 10.8, 'mass': 0.036, 'damping': 2.0,
-               'load_force': 0.0},   # near the paper's Table 1 (independent_plant.NOMINAL)
+               'load_force': 0.0},   # near the paper's Table 1 (independent_plant's NOMINAL)
     'independent_data': {'resistance': 3.2, 'inductance': 2.1e-3, 'emf_constant': 8.5, 'mass': 0.05,
                          'damping': 3.0, 'load_force': 0.0},   # tests/independent_data.TRUTH
     'voice_coil': {'resistance': 6.0, 'inductance': 0.9e-3, 'emf_constant': 6.0, 'mass': 0.02, 'damping': 1.5,

@@ -39,6 +39,7 @@ import time
 from typing import ClassVar
 
 import numpy as np
+from actuators import ACTUATORS
 
 from emla_core.recording import Recording
 
@@ -49,8 +50,7 @@ SUBSTEPS = 4               # RK4 steps per sample (h = 25 us; the stiffest defau
                            # |lambda| h ~ 0.04, the stuck friction contact ~ 0.1)
 
 # Near the paper's Table 1 (SI): ohm, H, V s/m = N/A, kg, N s/m, N.
-NOMINAL = {'resistance': 4.0, 'inductance': 1.6e-3, 'emf_constant': 10.8, 'mass': 0.036, 'damping': 2.0,
-           'load_force': 0.0}
+NOMINAL = dict(ACTUATORS['table1'])
 
 # PID on the sensed position (98 % of a 2.5 mm step in about 10 ms at NOMINAL, then a slow integral overshoot
 # of a few %; checked stable for random +-20 % parameter sets, alone and with all the effects at their

@@ -71,9 +71,11 @@ def _piece_gains(kind, q0, sample_period, pieces):
 
 @functools.lru_cache(maxsize=64)
 def _within(q0, sample_period, pieces):
-    """(P, G, H) of the model q0 (a tuple) from an interval's start to each of 2 `pieces` + 1 equally spaced
-    times, its start to its end."""
-    return [transition(np.array(q0), sample_period * f) for f in np.linspace(0.0, 1.0, 2 * pieces + 1)]
+    """The current's rows of (P, G, H) of the model q0 (a tuple) from an interval's start to each of 2 `pieces` + 1
+    equally spaced times, its start to its end (times x 3, times, times)."""
+    times = sample_period * np.linspace(0.0, 1.0, 2 * pieces + 1)
+    p, g, h = transition(np.array(q0), times[:, None, None])   # one matrix exponential per time
+    return p[:, 0], g[:, 0], h[:, 0]
 
 
 class Rows:
@@ -214,9 +216,8 @@ class Rows:
         ts = self.data.sample_period
         signals = self.data.signals
         s = np.stack((start, signals['position'][j], self.data.velocity()[j]))
-        steps = _within(tuple(self.q0[:6]), ts, pieces)
-        u, load = signals['voltage'][j], self.q0[5]
-        model = np.array([p[0] @ s + g[0] * u + h[0] * load for p, g, h in steps])
+        p, g, h = _within(tuple(self.q0[:6]), ts, pieces)
+        model = p @ s + np.outer(g, signals['voltage'][j]) + h[:, None] * self.q0[5]
         path = model + np.linspace(0.0, 1.0, len(model))[:, None] * (end - model[-1])
         return list(path[1::2]), list((path[2::2] - path[:-1:2]) * (pieces / ts))
 
