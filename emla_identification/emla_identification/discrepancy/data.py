@@ -136,9 +136,9 @@ class Data:
             return self.voltage_parts
         return np.repeat(np.concatenate((self.signals['voltage'], self.spare['voltage']))[:, None], PARTS, axis=1)
 
-    def unfiltered(self, name, time_constant):
-        """Data in which `name` (a sensed signal) is taken to have passed a first-order low-pass, tau dy/dt =
-        w - y, before it was sampled.
+    def unfiltered(self, names, time_constant):
+        """Data in which `names` (a sensed signal, or several) are taken to have passed a first-order low-pass,
+        tau dy/dt = w - y, before they were sampled.
 
         For the drive signal (current or force) the voltage and the position pass the same filter instead, so
         that every equation holds between filtered signals (exactly for the linear model, which commutes with
@@ -146,16 +146,26 @@ class Data:
         it is: undoing the filter would amplify it, and a current's kinks at every sample with it; filtering it
         would smooth its noise away, which the held-out errors would reward whatever the filter. The filter is
         applied exactly to the held voltage (each interval's mean of the filtered staircase) and to a position
-        cubic through x_k-1 .. x_k+2; it starts settled at the first samples.
+        cubic through x_k-1 .. x_k+2; it starts settled at the first samples. Every sensed signal behind the same
+        filter (one anti-alias filter per channel): the voltage alone passes it.
 
-        For the position (smooth), the filter is undone: x = y + tau dy/dt, dy/dt by central difference.
+        For the position alone (smooth), the filter is undone (_undone).
 
         What this does to a signal's noise is kept in `shaping`."""
-        if name not in self.sensed:
-            raise ValueError(f'{name!r} is not a sensed signal of these data')
+        names = (names,) if isinstance(names, str) else tuple(names)
+        if not names or any(name not in self.sensed for name in names):
+            raise ValueError(f'{names!r} are not sensed signals of these data')
         tau = float(time_constant)
         if not tau > 0.0:
             return self
+        if set(names) == set(self.sensed):
+            passing = [k for k in self.signals if k == 'voltage']
+        elif names == (self.drive,):
+            passing = [k for k in self.signals if k != self.drive]
+        elif len(names) == 1:
+            return self._undone(names[0], tau)
+        else:
+            raise ValueError(f'a filter on {names!r} alone is not modelled')
         from scipy.signal import lfilter
         a = math.exp(-self.sample_period / tau)
         ratio = tau / self.sample_period
@@ -163,35 +173,39 @@ class Data:
         parts = self.voltage_parts
         n = len(self)
         full = {k: np.concatenate((self.signals[k], self.spare[k])) for k in self.signals}
-        if name == self.drive:
-            for other in (k for k in self.signals if k != name):
-                w = full[other]
-                if other == 'voltage':   # each part held: y_end = b y_start + (1 - b) u,
-                    # its mean u + (y_start - u) T (1 - b), T = PARTS tau / Ts (tau in parts)
-                    b, fine = a ** (1.0 / PARTS), self._parts().ravel()
-                    y = lfilter([1.0 - b], [1.0, -b], fine, zi=[b * fine[0]])[0]
-                    start = np.concatenate((fine[:1], y[:-1]))
-                    parts = (fine + (start - fine) * ratio * PARTS * (1.0 - b)).reshape(-1, PARTS)
-                    full[other] = parts.mean(axis=1)
-                else:
-                    weights = _filter_weights(a, ratio)
-                    padded = np.concatenate((w[:1], w, np.repeat(w[-1:], 2)))
-                    drive = sum(weights[j] * padded[j:j + len(w)] for j in range(4))
-                    full[other] = np.concatenate((w[:1], lfilter([1.0], [1.0, -a], drive[:-1], zi=[a * w[0]])[0]))
-                    impulse = lfilter([1.0], [1.0, -a], np.eye(1, _taps(a))[0])
-                    shaping[other] = np.convolve(shaping.get(other, [1.0]), np.convolve(weights, impulse))
-        else:
-            w = full[name]
-            c = 0.5 * ratio
-            out = w.copy()
-            out[1:-1] += c * (w[2:] - w[:-2])
-            out[0] += 2.0 * c * (w[1] - w[0])
-            out[-1] += 2.0 * c * (w[-1] - w[-2])
-            full[name] = out
-            shaping[name] = np.convolve(shaping.get(name, [1.0]), [-c, 1.0, c])
+        for other in passing:
+            w = full[other]
+            if other == 'voltage':   # each part held: y_end = b y_start + (1 - b) u,
+                # its mean u + (y_start - u) T (1 - b), T = PARTS tau / Ts (tau in parts)
+                b, fine = a ** (1.0 / PARTS), self._parts().ravel()
+                y = lfilter([1.0 - b], [1.0, -b], fine, zi=[b * fine[0]])[0]
+                start = np.concatenate((fine[:1], y[:-1]))
+                parts = (fine + (start - fine) * ratio * PARTS * (1.0 - b)).reshape(-1, PARTS)
+                full[other] = parts.mean(axis=1)
+            else:
+                weights = _filter_weights(a, ratio)
+                padded = np.concatenate((w[:1], w, np.repeat(w[-1:], 2)))
+                drive = sum(weights[j] * padded[j:j + len(w)] for j in range(4))
+                full[other] = np.concatenate((w[:1], lfilter([1.0], [1.0, -a], drive[:-1], zi=[a * w[0]])[0]))
+                impulse = lfilter([1.0], [1.0, -a], np.eye(1, _taps(a))[0])
+                shaping[other] = np.convolve(shaping.get(other, [1.0]), np.convolve(weights, impulse))
         for k in self.signals:
             signals[k], spare[k] = full[k][:n], full[k][n:]
         return replace(self, signals=signals, spare=spare, shaping=shaping, voltage_parts=parts)
+
+    def _undone(self, name, tau):
+        """Data with the filter of `tau` undone on sensed signal `name`: w = y + tau dy/dt, dy/dt by the five-point
+        central difference (the three-point one errs by tau Ts^2 y'''/6, which left R 0.03 %, 7 sigma, off on a
+        5 kHz record behind a 12.7 kHz position filter)."""
+        ratio = tau / self.sample_period
+        w = np.concatenate((self.signals[name], self.spare[name]))
+        out = w + ratio * np.gradient(w)
+        out[2:-2] = w[2:-2] + ratio * (w[:-4] - 8.0 * w[1:-3] + 8.0 * w[3:-1] - w[4:]) / 12.0
+        taps = ratio / 12.0 * np.array([1.0, -8.0, 0.0, 8.0, -1.0])
+        taps[2] = 1.0
+        n = len(self)
+        return replace(self, signals=dict(self.signals, **{name: out[:n]}), spare=dict(self.spare, **{name: out[n:]}),
+                       shaping=dict(self.shaping, **{name: np.convolve(self.shaping.get(name, [1.0]), taps)}))
 
     def velocity(self):
         """Point velocity at every sample: five-point central difference (exact for cubic motion; kept: every
