@@ -11,8 +11,8 @@ strong) and the record's noise. Rerun one case, with its full JSON, by its seed:
 
 The sweep (`make discrepancy-sweep`, called by `make sweep`):
 
-    .venv/bin/python scripts/discrepancy_sweep.py --cases 400 --workers 2 --out out/discrepancy-sweep.jsonl
-    .venv/bin/python scripts/discrepancy_sweep.py --cases 400 --resume          # go on after an interruption
+    .venv/bin/python scripts/discrepancy_sweep.py --cases 240 --workers 2 --out out/discrepancy-sweep.jsonl
+    .venv/bin/python scripts/discrepancy_sweep.py --cases 240 --resume          # go on after an interruption
     .venv/bin/python scripts/discrepancy_sweep.py --report-only                 # rewrite the document
 
 runs the cases on dask.distributed (a LocalCluster of --workers processes, one thread each), appends each
