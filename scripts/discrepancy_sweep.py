@@ -973,7 +973,7 @@ def seed_list(text):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0],
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument('--cases', type=int, default=400, help='number of cases (default 400)')
+    parser.add_argument('--cases', type=int, default=240, help='number of cases (default 240)')
     parser.add_argument('--first-seed', type=int, default=1, help='the cases are seeds FIRST..FIRST+CASES-1')
     parser.add_argument('--workers', type=int, default=os.cpu_count() or 1,
                         help='dask worker processes (default: the core count)')
