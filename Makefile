@@ -48,7 +48,7 @@ sweep: setup
 	$(MAKE) discrepancy-sweep
 
 # The discrepancy workflow's accuracy on records of tests/independent_plant.py (issue 22), on dask workers;
-# SWEEP_RESUME=--resume goes on after an interruption. About 54 s a case per worker (234 cases: 212 worker-minutes).
+# SWEEP_RESUME=--resume goes on after an interruption. About 59 s a case per worker (240 cases: 235 worker-minutes).
 SWEEP_CASES ?= 240
 SWEEP_WORKERS ?= $(shell nproc)
 SWEEP_RESUME ?=
