@@ -47,25 +47,12 @@ def low_band(equations, sample_period):
     row's span, same units; or, for rows that are not consecutive samples, a 2-D array of realisations: the
     residuals such noise gives, each as long as the residual). The noise levels are fitted jointly over every
     equation's high band."""
-    ts = sample_period
-    spectra = {}
-    for key, (e, filters) in equations.items():
-        segment = min(SEGMENT, len(e) // 4)
-        frequency, power = welch(e, fs=1.0 / ts, nperseg=segment, detrend='constant')
-        shapes = {name: _shape(c, segment, 2 * (len(frequency) - 1), ts) for name, c in filters.items()}
-        spectra[key] = (frequency, power, shapes, float(np.mean(e)) ** 2)
-    sources = sorted({name for _, _, shapes, _ in spectra.values() for name in shapes})
-    rows, targets = [], []
-    for frequency, power, shapes, _ in spectra.values():
-        high = frequency >= HIGH / ts
-        weight = 1.0 / power[high].mean() if power[high].mean() > 0 else 1.0   # each equation in its own units
-        rows.append(weight * np.column_stack([shapes.get(name, np.zeros(len(frequency)))[high] for name in sources]))
-        targets.append(weight * power[high])
-    levels = dict(zip(sources, nnls(np.vstack(rows), np.concatenate(targets))[0]))
+    spectra = _spectra(equations, sample_period)
+    levels = _levels(spectra, sample_period)
     out = {}
     for key, (frequency, power, shapes, constant) in spectra.items():
         predicted = sum(levels[name] * shape for name, shape in shapes.items())
-        low = (frequency > 0) & (frequency <= LOW / ts)
+        low = (frequency > 0) & (frequency <= LOW / sample_period)
         step = frequency[1] - frequency[0]
         # the residual's mean too (Welch's detrending drops it): an offset the model cannot meet (a current
         # sensor's, a drive's) is a low-band misfit; the noise's own mean is some 1/N of its low band
@@ -74,6 +61,38 @@ def low_band(equations, sample_period):
         out[key] = LowBand(float(np.sqrt(max(measured_low - predicted_low, 0.0))), float(np.sqrt(predicted_low)),
                            float(ratio))
     return out
+
+
+def noise_variances(equations, sample_period):
+    """{signal: variance} of the white noise on each measured signal (its units squared), as low_band fits it to
+    the high band of the `equations` (low_band's argument)."""
+    levels = _levels(_spectra(equations, sample_period), sample_period)
+    # Welch's one-sided density of white noise of variance s2 through C: 2 Ts s2 |C(f)|^2
+    return {name: float(level) / (2.0 * sample_period) for name, level in levels.items()}
+
+
+def _spectra(equations, ts):
+    """{key: (frequencies, the residual's Welch density, {signal: |C(f)|^2}, its mean squared)}."""
+    spectra = {}
+    for key, (e, filters) in equations.items():
+        segment = min(SEGMENT, len(e) // 4)
+        frequency, power = welch(e, fs=1.0 / ts, nperseg=segment, detrend='constant')
+        shapes = {name: _shape(c, segment, 2 * (len(frequency) - 1), ts) for name, c in filters.items()}
+        spectra[key] = (frequency, power, shapes, float(np.mean(e)) ** 2)
+    return spectra
+
+
+def _levels(spectra, ts):
+    """{signal: the level of its noise's density} fitted (non-negative least squares) to every equation's high
+    band, each equation weighted by its mean power there (each in its own units)."""
+    sources = sorted({name for _, _, shapes, _ in spectra.values() for name in shapes})
+    rows, targets = [], []
+    for frequency, power, shapes, _ in spectra.values():
+        high = frequency >= HIGH / ts
+        weight = 1.0 / power[high].mean() if power[high].mean() > 0 else 1.0
+        rows.append(weight * np.column_stack([shapes.get(name, np.zeros(len(frequency)))[high] for name in sources]))
+        targets.append(weight * power[high])
+    return dict(zip(sources, nnls(np.vstack(rows), np.concatenate(targets))[0]))
 
 
 def _shape(c, segment, points, ts):

@@ -4,10 +4,12 @@ alone would leave in it (noise_floor.py: the low band of the residual's spectrum
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.signal import lfilter
 
-from emla_identification.noise_floor import LowBand, low_band
+from emla_identification.noise_floor import LowBand, low_band, noise_variances
 from emla_identification.regressors import noise_stencils
 
+from .fit import PREFILTER
 from .rows import Rows
 
 EQUATION = {'electrical': 'electrical', 'mechanical': 'mechanical', 'force': 'mechanical'}   # regression kinds
@@ -39,11 +41,44 @@ def noise_filters(fit, rows):
 
 def assess_adequacy(fit):
     """{equation: Adequacy} of a Fit (noise_floor.low_band of its held-out residuals, in volts or newtons)."""
+    equations, quantities = _equations(fit)
+    return {EQUATION[kind]: Adequacy(band.size, band.floor, band.ratio, equation=EQUATION[kind],
+                                     quantity=quantities[kind], residual=equations[kind][0])
+            for kind, band in low_band(equations, fit.data.sample_period).items()}
+
+
+def sensor_noise(fit):
+    """{signal: variance} of each measured signal's white noise, fitted to the high band of a Fit's held-out
+    residuals as assess_adequacy fits it (noise_floor.noise_variances)."""
+    return noise_variances(_equations(fit)[0], fit.data.sample_period)
+
+
+def _equations(fit):
+    """({kind: (held-out residual, {signal: its noise filter})} in physical units, {kind: the quantity})."""
     equations, quantities = {}, {}
     for kind, residual in fit.heldout_residuals().items():
         rows = Rows(fit.data, kind, fit.linearised_about)
         scale, quantities[kind] = rows.scale()
         equations[kind] = (residual * scale, {name: c * scale for name, c in noise_filters(fit, rows).items()})
-    return {EQUATION[kind]: Adequacy(band.size, band.floor, band.ratio, equation=EQUATION[kind],
-                                     quantity=quantities[kind], residual=equations[kind][0])
-            for kind, band in low_band(equations, fit.data.sample_period).items()}
+    return equations, quantities
+
+
+def noise_gains(fit):
+    """{signal: g}: white noise of unit variance on `signal` puts g into a Fit's held-out error (Fit.heldout
+    summed: its weights, the mechanical rows prefiltered): each row's noise through its filters (noise_filters,
+    with any re-alignment's shaping; the mechanical ones through fit.PREFILTER as well)."""
+    rho = PREFILTER
+    gains = {}
+    for kind in fit.data.kinds:
+        rows = Rows(fit.data, kind, fit.linearised_about)
+        for name, c in noise_filters(fit, rows).items():
+            if kind != 'electrical':   # the prefilter's impulse response has decayed to 1e-12 after 300 samples
+                c = lfilter([1.0 - rho], [1.0, -2.0 * rho, rho * rho], np.pad(c, (0, 300)))
+            gains[name] = gains.get(name, 0.0) + len(rows.y) * float(np.sum(np.square(c))) / fit.sigma[kind] ** 2
+    return gains
+
+
+def heldout_noise(fit, variances):
+    """The part of a Fit's held-out error that white sensor noise of `variances` ({signal: variance}) puts there
+    (noise_gains)."""
+    return sum(variances.get(name, 0.0) * gain for name, gain in noise_gains(fit).items())
