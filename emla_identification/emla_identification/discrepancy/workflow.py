@@ -494,13 +494,12 @@ def backfitted(raw, base, assessment):
     result = assessment.fit
     candidates = result.candidates
     for i, earlier in enumerate(candidates[:-1]):
-        if type(earlier).realigned is not Candidate.realigned and earlier.scale is not None \
-                and 0.0 < getattr(earlier, earlier.scale) < np.inf:
+        if _realigns(earlier) and earlier.scale is not None and 0.0 < getattr(earlier, earlier.scale) < np.inf:
             candidates = candidates[:i] + (_searched_again(raw, base, result, candidates, i),) + candidates[i + 1:]
     if candidates == result.candidates:
         return assessment
     again = _judged(base, fit(realigned(raw, candidates), candidates, base, about=result.parameters))
-    changed = next(c for c in candidates if type(c).realigned is not Candidate.realigned)
+    changed = next(c for c in candidates if _realigns(c))
     noise_free = _noise_free(result, changed)
     better = _noise_free_error(again.fit, noise_free, changed) < _noise_free_error(result, noise_free, changed)
     return again if better else assessment
@@ -571,10 +570,14 @@ def _best_variant(base, variants, about):
     return best
 
 
+def _realigns(candidate):
+    """Does the candidate re-align the data (a sensor's delay or filter: Candidate.realigned)?"""
+    return type(candidate).realigned is not Candidate.realigned
+
+
 def _gains(result, error, candidate):
     """adequacy.noise_gains of a finite fit where `candidate` re-aligns the data (_noise_free reads them), else {}."""
-    realigns = type(candidate).realigned is not Candidate.realigned
-    return noise_gains(result) if realigns and np.isfinite(error) else {}
+    return noise_gains(result) if _realigns(candidate) and np.isfinite(error) else {}
 
 
 def _noise_free_error(result, noise_free, candidate, error=None):
@@ -595,7 +598,7 @@ def _noise_free(model, candidate):
     its variants carry different shares of the noise, and the held-out error rewards the one that carries least:
     behind a 2 kHz position filter at 10 kHz it took tau 1-4 % short (R 5 sigma off), less the noise within
     1.1 %. The fitted noise levels are within 5 % of the independent plant's."""
-    if type(candidate).realigned is Candidate.realigned or not np.isfinite(_heldout_total(model)):
+    if not _realigns(candidate) or not np.isfinite(_heldout_total(model)):
         return lambda gains, error: error
     if '_sensor_noise' not in model.__dict__:   # kept: a polish and a backfit ask again
         model.__dict__['_sensor_noise'] = sensor_noise(model)
