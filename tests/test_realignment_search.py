@@ -9,7 +9,7 @@ import math
 import pytest
 from independent_plant import random_parameters, record
 
-from emla_identification.discrepancy.adequacy import heldout_noise, sensor_noise
+from emla_identification.discrepancy.adequacy import heldout_noise, noise_gains, sensor_noise
 from emla_identification.discrepancy.candidates import library
 from emla_identification.discrepancy.data import Data
 from emla_identification.discrepancy.fit import fit
@@ -37,7 +37,7 @@ def test_the_held_out_error_of_the_right_model_is_the_sensor_noise_it_predicts(r
         undone = candidate(data, 'sensor_filter', filtered=('position',), sensed=tuple(data.sensed),
                            time_constant=tau)
         model = fit(undone.realigned(data), (undone,), model)
-    assert heldout_noise(model, PLANT_NOISE) == pytest.approx(model.heldout.sum(), rel=0.05)
+    assert heldout_noise(noise_gains(model), PLANT_NOISE) == pytest.approx(model.heldout.sum(), rel=0.05)
     fitted = sensor_noise(model)
     for name, variance in PLANT_NOISE.items():
         assert fitted[name] == pytest.approx(variance, rel=0.1), name

@@ -78,7 +78,7 @@ def noise_gains(fit):
     return gains
 
 
-def heldout_noise(fit, variances):
-    """The part of a Fit's held-out error that white sensor noise of `variances` ({signal: variance}) puts there
-    (noise_gains)."""
-    return sum(variances.get(name, 0.0) * gain for name, gain in noise_gains(fit).items())
+def heldout_noise(gains, variances):
+    """The part of a Fit's held-out error that white sensor noise of `variances` ({signal: variance}) puts there,
+    from its noise_gains `gains`."""
+    return sum(variances.get(name, 0.0) * gain for name, gain in gains.items())

@@ -59,7 +59,7 @@ from emla_core.recording import Recording
 
 from ..checks import check_magnitudes, numerical_failures
 from ..plausibility import plausibility_warnings
-from .adequacy import EQUATION, assess_adequacy, noise_gains, sensor_noise
+from .adequacy import EQUATION, assess_adequacy, heldout_noise, noise_gains, sensor_noise
 from .candidates import library
 from .data import Data, regression_rows
 from .dependence import dependence, signals_of
@@ -603,7 +603,7 @@ def _noise_free(model, candidate):
     if '_sensor_noise' not in model.__dict__:   # kept: a polish and a backfit ask again
         model.__dict__['_sensor_noise'] = sensor_noise(model)
     variances = model.__dict__['_sensor_noise']
-    return lambda gains, error: error - sum(variances.get(name, 0.0) * g for name, g in gains.items())
+    return lambda gains, error: error - heldout_noise(gains, variances)
 
 
 def _polished(base, variant, variants, model):
