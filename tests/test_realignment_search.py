@@ -71,3 +71,15 @@ def test_a_delay_named_before_another_effect_is_searched_again_with_it():
     again = backfitted(data, first, both)
     assert again.fit.candidates[0].delay == pytest.approx(late, abs=0.05)
     assert again.fit.heldout.sum() < both.fit.heldout.sum()
+
+
+@pytest.mark.parametrize('late, seed', [(0.64, 5), (0.45, 7)])
+def test_a_fractional_position_delay_is_set_at_the_truth(late, seed):
+    """A position a fraction of a sample late (10 kHz; the record starts in motion). The all-pass that moves it
+    once started at a later sample than the record's first and put a transient in the first rows, different
+    either side of half a sample (where its whole-sample part steps): 0.64 was set at 0.5, and 0.45 at 0.47."""
+    recording, _ = record(1.0, params=random_parameters(seed=seed), seed=seed, delays={'current': 0, 'position': late})
+    data = Data.from_recording(recording)
+    found = assess(fit(data), candidate(data, 'sensor_delay')).fit.candidates[-1]
+    assert found.late == ('position',)
+    assert found.delay == pytest.approx(late, abs=0.005)
