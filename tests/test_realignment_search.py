@@ -26,8 +26,8 @@ def candidate(data, name, **settings):
 @pytest.mark.parametrize('rate, filtered', [(10000.0, False), (3000.0, False), (10000.0, True)])
 def test_the_held_out_error_of_the_right_model_is_the_sensor_noise_it_predicts(rate, filtered):
     """A clean record's nominal fit, and a position behind a 2 kHz filter undone at its true time constant (the
-    undoing amplifies the position's noise): the held-out error is the plant's noise through the rows, and the
-    noise levels fitted to the residuals are the plant's."""
+    undoing amplifies the position's noise): the held-out error is the plant's noise through the rows, each
+    equation's is the noise at the levels fitted to the residuals, and those levels are the plant's."""
     tau = 1.0 / (2.0 * math.pi * 2000.0)
     effects = [('sensor_filter', {'current_cutoff': 0.0, 'position_cutoff': 2000.0})] if filtered else []
     recording, _ = record(1.0, params=random_parameters(seed=3), effects=effects, seed=3, sample_period=1.0 / rate)
@@ -37,8 +37,12 @@ def test_the_held_out_error_of_the_right_model_is_the_sensor_noise_it_predicts(r
         undone = candidate(data, 'sensor_filter', filtered=('position',), sensed=tuple(data.sensed),
                            time_constant=tau)
         model = fit(undone.realigned(data), (undone,), model)
-    assert heldout_noise(noise_gains(model), PLANT_NOISE) == pytest.approx(model.heldout.sum(), rel=0.05)
+    gains = noise_gains(model)
+    assert sum(heldout_noise(gains, PLANT_NOISE).values()) == pytest.approx(model.heldout.sum(), rel=0.05)
     fitted = sensor_noise(model)
+    predicted = heldout_noise(gains, fitted)   # each equation's, at the levels the workflow reads
+    for kind, error in zip(data.kinds, model.heldout.sum(axis=0)):
+        assert predicted[kind] == pytest.approx(error, rel=0.05), kind
     for name, variance in PLANT_NOISE.items():
         assert fitted[name] == pytest.approx(variance, rel=0.1), name
 

@@ -64,21 +64,23 @@ def _equations(fit):
 
 
 def noise_gains(fit):
-    """{signal: g}: white noise of unit variance on `signal` puts g into a Fit's held-out error (Fit.heldout
-    summed: its weights, the mechanical rows prefiltered): each row's noise through its filters (noise_filters,
-    with any re-alignment's shaping; the mechanical ones through fit.PREFILTER as well)."""
+    """{kind: {signal: g}}: white noise of unit variance on `signal` puts g into the held-out error of a Fit's
+    regression `kind` (Fit.heldout summed over the blocks: its weights, the mechanical rows prefiltered): each
+    row's noise through its filters (noise_filters, with any re-alignment's shaping; the mechanical ones through
+    fit.PREFILTER as well)."""
     rho = PREFILTER
     gains = {}
     for kind in fit.data.kinds:
         rows = Rows(fit.data, kind, fit.linearised_about)
+        gains[kind] = {}
         for name, c in noise_filters(fit, rows).items():
             if kind != 'electrical':   # the prefilter's impulse response has decayed to 1e-12 after 300 samples
                 c = lfilter([1.0 - rho], [1.0, -2.0 * rho, rho * rho], np.pad(c, (0, 300)))
-            gains[name] = gains.get(name, 0.0) + len(rows.y) * float(np.sum(np.square(c))) / fit.sigma[kind] ** 2
+            gains[kind][name] = len(rows.y) * float(np.sum(np.square(c))) / fit.sigma[kind] ** 2
     return gains
 
 
 def heldout_noise(gains, variances):
-    """The part of a Fit's held-out error that white sensor noise of `variances` ({signal: variance}) puts there,
-    from its noise_gains `gains`."""
-    return sum(variances.get(name, 0.0) * gain for name, gain in gains.items())
+    """{kind: the part of a Fit's held-out error in regression `kind` that white sensor noise of `variances`
+    ({signal: variance}) puts there}, from its noise_gains `gains`."""
+    return {kind: sum(variances.get(name, 0.0) * g for name, g in signals.items()) for kind, signals in gains.items()}

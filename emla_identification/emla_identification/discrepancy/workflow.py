@@ -63,7 +63,7 @@ from .adequacy import EQUATION, assess_adequacy, heldout_noise, noise_gains, sen
 from .candidates import library
 from .data import Data, regression_rows
 from .dependence import dependence, signals_of
-from .fit import FOLDS, Fit, chi_square, design, fit, greybox_start, nominal_fit, physical, with_systematic
+from .fit import FOLDS, Fit, design, fit, greybox_start, nominal_fit, physical, with_systematic
 from .predict import MECHANICAL_TIME, predict
 from .profile import profiled, realigned
 from .residuals import binned, cross_correlation, whiteness
@@ -527,7 +527,7 @@ def _searched_again(raw, base, model, candidates, i):
 def _judged(base, result):
     """The Assessment of `result`, the fit of `base` with one more candidate (its last)."""
     best = result.candidates[-1]
-    heldout = np.nan_to_num(result.heldout, nan=np.inf)
+    heldout = np.maximum(np.nan_to_num(result.heldout, nan=np.inf) - _excess_noise(base, result), 0.0)
     gain = base.heldout - heldout   # per block and equation; each equation's share removed, bounded:
     per_equation = [removed_share(b, a) for b, a in zip(base.heldout.sum(axis=0), heldout.sum(axis=0))]
     kinds = result.data.kinds
@@ -555,13 +555,13 @@ def _best_variant(base, variants, about):
         return fit(variant.realigned(base.data), base.candidates + (variant,), base, relinearise=False, about=about)
     if len(variants) == 1:
         return variants[0]
-    fits = []   # (variant, held-out error, noise gains where it re-aligns); the fit of the lowest error
+    fits = []   # (variant, each equation's held-out error, noise gains where it re-aligns); the fit of the lowest
     first = None
     for variant in variants:
         result = heldout_fit(variant)
-        error = _heldout_total(result)
-        fits.append((variant, error, _gains(result, error, variants[0])))
-        if first is None or error < _heldout_total(first):
+        errors = _heldout_errors(result)
+        fits.append((variant, errors, _gains(result, errors, variants[0])))
+        if first is None or np.sum(errors) < _heldout_total(first):
             first = result
     noise_free = _noise_free(first, variants[0])
     best = min(fits, key=lambda f: noise_free(f[2], f[1]))[0]
@@ -575,35 +575,67 @@ def _realigns(candidate):
     return type(candidate).realigned is not Candidate.realigned
 
 
-def _gains(result, error, candidate):
+def _gains(result, errors, candidate):
     """adequacy.noise_gains of a finite fit where `candidate` re-aligns the data (_noise_free reads them), else {}."""
-    return noise_gains(result) if _realigns(candidate) and np.isfinite(error) else {}
+    return noise_gains(result) if _realigns(candidate) and np.all(np.isfinite(errors)) else {}
 
 
-def _noise_free_error(result, noise_free, candidate, error=None):
-    """A Fit's held-out error (or `error`) through `noise_free` (_noise_free of `candidate`)."""
-    error = _heldout_total(result) if error is None else error
-    return noise_free(_gains(result, error, candidate), error)
+def _noise_free_error(result, noise_free, candidate, errors=None):
+    """A Fit's held-out errors (or `errors`, each equation's) through `noise_free` (_noise_free of `candidate`)."""
+    errors = _heldout_errors(result) if errors is None else errors
+    return noise_free(_gains(result, errors, candidate), errors)
 
 
 def _noise_free(model, candidate):
-    """(noise gains of a fit (adequacy.noise_gains), its error) -> the error less the sensor noise the fit's rows
-    carry where `candidate` re-aligns the data, at the noise levels fitted to the residuals of `model`
-    (adequacy.sensor_noise: a fit with a re-alignment of that kind, whose residual's high band is the noise; the
-    misaligned model's is not: behind a 1 kHz current filter at 10 kHz it gave 28 mA for the plant's 5); the
-    error itself otherwise.
+    """(noise gains of a fit (adequacy.noise_gains), each equation's error) -> where `candidate` re-aligns the
+    data, the sum over the equations of the error less the sensor noise the fit's rows carry into it, in units of
+    the noise the Fit `model`'s rows carry into that equation, at the noise levels fitted to the residuals of
+    `model` (adequacy.sensor_noise: a fit with a re-alignment of that kind, whose residual's high band is the
+    noise; the misaligned model's is not: behind a 1 kHz current filter at 10 kHz it gave 28 mA for the plant's
+    5); the errors' sum otherwise.
 
     A re-alignment filters the signals (undoing a position filter, x = y + tau dy/dt, amplifies the position's
     noise by about (tau / Ts)^2; a current filter passes the position through the filter, which smooths it), so
     its variants carry different shares of the noise, and the held-out error rewards the one that carries least:
     behind a 2 kHz position filter at 10 kHz it took tau 1-4 % short (R 5 sigma off), less the noise within
-    1.1 %. The fitted noise levels are within 5 % of the independent plant's."""
+    1.1 %. The fitted noise levels are within 5 % of the independent plant's. Each equation in its noise's units:
+    the rows are weighted by the residual of the model before the re-alignment, which a misaligned position
+    leaves huge in the force balance (805000 times its floor, 2 samples late at 5 kHz), and in those weights the
+    electrical equation's noise, not the force balance, set the delay (2.007 samples, the force balance left at
+    10 times its floor, where 2 leaves it at 1)."""
     if not _realigns(candidate) or not np.isfinite(_heldout_total(model)):
-        return lambda gains, error: error
-    if '_sensor_noise' not in model.__dict__:   # kept: a polish and a backfit ask again
+        return lambda gains, errors: float(np.sum(errors))
+    variances = _variances(model)
+    own = heldout_noise(noise_gains(model), variances)
+    kinds = model.data.kinds
+    scale = [own[kind] if own[kind] > 0 else 1.0 for kind in kinds]
+
+    def noise_free(gains, errors):
+        noise = heldout_noise(gains, variances)   # {} where the fit failed: its errors are infinite
+        return float(sum((error - noise.get(kind, 0.0)) / unit for kind, error, unit in zip(kinds, errors, scale)))
+    return noise_free
+
+
+def _variances(model):
+    """adequacy.sensor_noise of a Fit, kept (a polish, a backfit and the score ask again)."""
+    if '_sensor_noise' not in model.__dict__:
         model.__dict__['_sensor_noise'] = sensor_noise(model)
-    variances = model.__dict__['_sensor_noise']
-    return lambda gains, error: error - heldout_noise(gains, variances)
+    return model.__dict__['_sensor_noise']
+
+
+def _excess_noise(base, result):
+    """(FOLDS, kinds): the sensor noise a Fit `result` whose last candidate re-aligns the data carries into each
+    equation's held-out blocks beyond what the rows of `base` carry there (at the noise levels fitted to `result`,
+    shared among the blocks by their rows); 0 for any other candidate. Taken off its held-out error, its score is
+    the misfit it removes, not the noise it passes: undoing a 2 kHz position filter at 10 kHz amplifies the
+    position's noise by about 1 + 0.26 (tau / Ts)^2, a delay of about tau (an all-pass) does not, and the delay
+    was named for the filter."""
+    if not _realigns(result.candidates[-1]) or not np.isfinite(_heldout_total(result)):
+        return 0.0
+    variances = _variances(result)
+    own, theirs = (heldout_noise(noise_gains(f), variances) for f in (result, base))
+    rows = np.diff(result.bounds) / (result.bounds[-1] - result.bounds[0])
+    return rows[:, None] * np.array([own[kind] - theirs[kind] for kind in result.data.kinds])
 
 
 def _polished(base, variant, variants, model):
@@ -625,7 +657,7 @@ def _polished(base, variant, variants, model):
         trial = variant.at(base.data, setting)
         result = fit(trial.realigned(base.data), base.candidates + (trial,), base, relinearise=False,
                      about=model.parameters)
-        return _noise_free_error(result, noise_free, variant, _chi_square(result))
+        return _noise_free_error(result, noise_free, variant, _chi_squares(result))
     low, middle, high = (chi_square(value * (1.0 + POLISH * u)) for u in (-1.0, 0.0, 1.0))
     tried = {value: middle}
     curvature = low + high - 2.0 * middle
@@ -638,17 +670,27 @@ def _polished(base, variant, variants, model):
     return variant.at(base.data, min(tried, key=tried.get))
 
 
-def _chi_square(result):
-    """A Fit's weighted residual sum of squares on all its rows (fit.chi_square in its own weights); infinite for
-    an impossible actuator."""
-    total = chi_square(result, result.sigma)
-    return float(total) if np.isfinite(total) and physical(result.parameters) else np.inf
+def _chi_squares(result):
+    """Each equation's weighted residual sum of squares on all its rows (in the Fit's own weights, data.kinds
+    order); infinite for an impossible actuator."""
+    return _possible(result, [result.degrees_of_freedom * (result.rms[kind] / result.sigma[kind]) ** 2
+                              for kind in result.data.kinds])
+
+
+def _heldout_errors(result):
+    """Each equation's held-out residual sum of squares (data.kinds order); infinite for an impossible actuator or
+    a failed fit."""
+    return _possible(result, result.heldout.sum(axis=0))
+
+
+def _possible(result, errors):
+    errors = np.asarray(errors, dtype=float)
+    return errors if np.all(np.isfinite(errors)) and physical(result.parameters) else np.full(errors.shape, np.inf)
 
 
 def _heldout_total(result):
     """A Fit's held-out residual sum of squares; infinite for an impossible actuator or a failed fit."""
-    error = result.heldout.sum()
-    return float(error) if np.isfinite(error) and physical(result.parameters) else np.inf
+    return float(np.sum(_heldout_errors(result)))
 
 
 def _realigned_start(moved):
