@@ -13,7 +13,7 @@ from emla_identification.discrepancy.adequacy import heldout_noise, noise_gains,
 from emla_identification.discrepancy.candidates import library
 from emla_identification.discrepancy.data import Data
 from emla_identification.discrepancy.fit import fit
-from emla_identification.discrepancy.workflow import assess, backfitted
+from emla_identification.discrepancy.workflow import assess, backfitted, polished
 
 PLANT_NOISE = {'current': 5e-3 ** 2, 'position': 1e-6 ** 2 / 12.0}   # the plant's sensors
 
@@ -87,3 +87,17 @@ def test_a_fractional_position_delay_is_set_at_the_truth(late, seed):
     found = assess(fit(data), candidate(data, 'sensor_delay')).fit.candidates[-1]
     assert found.late == ('position',)
     assert found.delay == pytest.approx(late, abs=0.005)
+
+
+def test_a_whole_sample_position_delay_is_set_by_the_force_balance():
+    """A position 2 samples late at 5 kHz. The rows are weighted by the misaligned nominal model's residual, which
+    leaves the force balance's weight tiny; summed in those weights the electrical equation's noise set the delay
+    at 2.007 samples after the polish (the force balance left at about 10 times its floor). Each equation's error
+    in its noise's units: within 0.002 samples."""
+    recording, _ = record(1.0, params=random_parameters(seed=1), seed=1, sample_period=2e-4,
+                          delays={'current': 0, 'position': 2.0})
+    data = Data.from_recording(recording)
+    base = fit(data)
+    found = polished(base, assess(base, candidate(data, 'sensor_delay'))).fit.candidates[-1]
+    assert found.late == ('position',)
+    assert found.delay == pytest.approx(2.0, abs=0.002)
