@@ -360,8 +360,8 @@ def diagnose(data: Recording | Path | str | None = None, names: Sequence[str] | 
             if not best.named:
                 diagnosis.partial = best if best.significant else None
                 break
-            diagnosis.stages.append(Stage(best, after, predict(best.fit), rivals(best, [a for a in left if a.name
-                                                                                        != best.name])))
+            others = [a for a in left if a.name != best.name]
+            diagnosis.stages.append(Stage(best, after, predict(best.fit), rivals(best, others)))
             current, adequacy = best.fit, after
             named = {stage.assessment.fit.candidates[-1].name for stage in diagnosis.stages}
             left = rank(current, [c for c in library(data, names) if c.name not in named])
