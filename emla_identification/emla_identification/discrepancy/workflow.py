@@ -592,7 +592,7 @@ def _realigns(candidate):
 
 def _gains(result, errors, candidate):
     """adequacy.noise_gains of a finite fit where `candidate` re-aligns the data (_noise_free reads them), else {}."""
-    return noise_gains(result) if _realigns(candidate) and np.all(np.isfinite(errors)) else {}
+    return _noise_gains(result) if _realigns(candidate) and np.all(np.isfinite(errors)) else {}
 
 
 def _noise_free_error(result, noise_free, candidate, errors=None):
@@ -621,7 +621,7 @@ def _noise_free(model, candidate):
     if not _realigns(candidate) or not np.isfinite(_heldout_total(model)):
         return lambda gains, errors: float(np.sum(errors))
     variances = _variances(model)
-    own = heldout_noise(noise_gains(model), variances)
+    own = heldout_noise(_noise_gains(model), variances)
     kinds = model.data.kinds
     scale = [own[kind] if own[kind] > 0 else 1.0 for kind in kinds]
 
@@ -633,9 +633,20 @@ def _noise_free(model, candidate):
 
 def _variances(model):
     """adequacy.sensor_noise of a Fit, kept (a polish, a backfit and the score ask again)."""
-    if '_sensor_noise' not in model.__dict__:
-        model.__dict__['_sensor_noise'] = sensor_noise(model)
-    return model.__dict__['_sensor_noise']
+    return _kept(model, sensor_noise)
+
+
+def _noise_gains(model):
+    """adequacy.noise_gains of a Fit, kept (each re-aligning candidate judged against it asks again)."""
+    return _kept(model, noise_gains)
+
+
+def _kept(model, measure):
+    """measure(model), computed once per Fit and kept in its __dict__ under the measure's name."""
+    key = '_' + measure.__name__
+    if key not in model.__dict__:
+        model.__dict__[key] = measure(model)
+    return model.__dict__[key]
 
 
 def _excess_noise(base, result):
@@ -648,7 +659,7 @@ def _excess_noise(base, result):
     if not _realigns(result.candidates[-1]) or not np.isfinite(_heldout_total(result)):
         return 0.0
     variances = _variances(result)
-    own, theirs = (heldout_noise(noise_gains(f), variances) for f in (result, base))
+    own, theirs = (heldout_noise(_noise_gains(f), variances) for f in (result, base))
     rows = np.diff(result.bounds) / (result.bounds[-1] - result.bounds[0])
     return rows[:, None] * np.array([own[kind] - theirs[kind] for kind in result.data.kinds])
 
