@@ -618,7 +618,7 @@ def _noise_free(model, candidate):
     leaves huge in the force balance (805000 times its floor, 2 samples late at 5 kHz), and in those weights the
     electrical equation's noise, not the force balance, set the delay (2.007 samples, the force balance left at
     10 times its floor, where 2 leaves it at 1)."""
-    if not _realigns(candidate) or not np.isfinite(_heldout_total(model)):
+    if not _realigns(candidate) or not _noise_known(model):
         return lambda gains, errors: float(np.sum(errors))
     variances = _variances(model)
     own = heldout_noise(_noise_gains(model), variances)
@@ -629,6 +629,21 @@ def _noise_free(model, candidate):
         noise = heldout_noise(gains, variances)   # {} where the fit failed: its errors are infinite
         return float(sum((error - noise.get(kind, 0.0)) / unit for kind, error, unit in zip(kinds, errors, scale)))
     return noise_free
+
+
+def _noise_known(model):
+    """Are the sensor noise levels fitted to a finite Fit's residuals (adequacy.sensor_noise) its noise: do they
+    put no more into each equation's held-out error than it holds (within 3 sqrt(2 / n), the spread of a sum of n
+    squares of white noise)? Where the residual is misfit, not white noise, the levels fitted to its high band
+    can predict more than all of it (a 1-sample current delay named 2.84 samples beside a missing spring at
+    3 kHz: 1.4 and 2 times, 235 mA for 5), and taking that off its held-out error made the worst candidate
+    perfect; the right re-alignments here predict their held-out error within 1 %."""
+    if not np.isfinite(_heldout_total(model)):
+        return False
+    noise = heldout_noise(_noise_gains(model), _variances(model))
+    errors = model.heldout.sum(axis=0)
+    spread = 1.0 + 3.0 * np.sqrt(2.0 / model.degrees_of_freedom)
+    return all(noise[kind] <= spread * error for kind, error in zip(model.data.kinds, errors))
 
 
 def _variances(model):
@@ -656,7 +671,7 @@ def _excess_noise(base, result):
     the misfit it removes, not the noise it passes: undoing a 2 kHz position filter at 10 kHz amplifies the
     position's noise by about 1 + 0.26 (tau / Ts)^2, a delay of about tau (an all-pass) does not, and the delay
     was named for the filter."""
-    if not _realigns(result.candidates[-1]) or not np.isfinite(_heldout_total(result)):
+    if not _realigns(result.candidates[-1]) or not _noise_known(result):
         return 0.0
     variances = _variances(result)
     own, theirs = (heldout_noise(_noise_gains(f), variances) for f in (result, base))
