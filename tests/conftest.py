@@ -26,7 +26,8 @@ SLOW = {
                               'test_a_coulomb_friction_is_not_called_stribeck_or_smooth'),
     'test_position_inductance.py': ('test_the_discrepancy_workflow_names_it_on_independent_data',),
     'test_discrepancy_rescue.py': ('test_a_record_the_nominal_model_alone_cannot_fit_is_diagnosed',
-                                   'test_a_dry_friction_with_a_damped_stuck_contact_closes'),
+                                   'test_a_dry_friction_with_a_damped_stuck_contact_closes',
+                                   'test_a_delay_beside_a_missing_spring_is_not_scored_on_its_misfit_read_as_noise'),
     # the solenoid's: each effect at a second strength (the weaker one stays), a pair, its sigma over realisations,
     # the observer on four more records
     'test_solenoid_discrepancy.py': ('test_a_hidden_friction_is_named_and_the_mechanics_come_back',

@@ -50,3 +50,16 @@ def test_a_model_file_from_before_the_friction_damping_reads_it_as_zero(tmp_path
                     'parameters: {coulomb_force: {value: 1.0, std: 0.01}}}]\n')
     effect = read(path).effects[0]
     assert effect.parameters == {'coulomb_force': (1.0, 0.01), 'presliding_damping': (0.0, None)}
+
+
+def test_a_delay_beside_a_missing_spring_is_not_scored_on_its_misfit_read_as_noise():
+    """Seed 205: a 1577 N/m return spring and the current one sample late at 3 kHz. The nominal model alone is
+    impossible (a negative resistance) and comes from the delay's start. Against it the delay was searched to
+    2.84 samples with the spring missing; the noise levels fitted to that fit's residual (235 mA for 5) put more
+    into its held-out error than it held, and taking that off scored the worst fit 2.0 (nothing named). Now such
+    levels are not the fit's noise (workflow._noise_known): the spring is named, then the delay at one sample."""
+    r = _case(205)
+    assert r['verdict'] == 'explained' and sorted(r['named']) == ['return_spring', 'sensor_delay'], r['candidates']
+    delay = r['effect_parameters']['current_delay']
+    assert delay['within'], delay
+    assert abs(delay['value'] / delay['truth'] - 1.0) < 0.01, delay
