@@ -23,10 +23,13 @@ DURATION = 2.0
 CORE = ('resistance', 'inductance', 'emf_constant', 'mass')
 
 
-def shm_in_use():
-    """Names of the /dev/shm files some live process has open or mapped."""
+def shm_in_use(exclude=()):
+    """Names of the /dev/shm files some live process (but those of pids `exclude`) has open or mapped."""
     names = set()
+    skipped = {str(pid) for pid in exclude}
     for proc in Path('/proc').iterdir():
+        if proc.name in skipped:
+            continue
         try:
             names.update(Path(os.readlink(fd)).name for fd in (proc / 'fd').iterdir())
             names.update(line.rsplit('/', 1)[-1] for line in (proc / 'maps').read_text().splitlines()
