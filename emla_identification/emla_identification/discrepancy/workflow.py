@@ -351,11 +351,11 @@ def diagnose(data: Recording | Path | str | None = None, names: Sequence[str] | 
             if best is None or (all(a.adequate for a in adequacy.values()) and best.score < MOST):
                 break
             if best.score < MIN_SCORE:   # it matters only if it removes most of the disagreement: see, unpolished
-                best.share = removed_share(_disagreement(adequacy), _disagreement(assess_adequacy(best.fit)))
+                best.share = removed_share(_disagreement(adequacy), _disagreement(_adequacy(best.fit)))
                 if not best.significant:
                     break
             best = backfitted(data, current, polished(current, best))
-            after = assess_adequacy(best.fit)
+            after = _adequacy(best.fit)
             best.share = removed_share(_disagreement(adequacy), _disagreement(after))
             if not best.named:
                 diagnosis.partial = best if best.significant else None
@@ -409,7 +409,7 @@ def _chosen(ranked):
     and the delay left the force balance at 38 times its floor, the filter at 1.3."""
     leaders = [a for a in ranked if a.evident and a.score >= MOST]
     if len(leaders) > 1:
-        return min(leaders, key=lambda a: _disagreement(assess_adequacy(a.fit)))
+        return min(leaders, key=lambda a: _disagreement(_adequacy(a.fit)))
     return ranked[0] if ranked and ranked[0].evident else None
 
 
@@ -649,6 +649,11 @@ def _noise_known(model):
 def _variances(model):
     """adequacy.sensor_noise of a Fit, kept (a polish, a backfit and the score ask again)."""
     return _kept(model, sensor_noise)
+
+
+def _adequacy(model):
+    """assess_adequacy of a Fit, kept (_chosen and a weak candidate's share ask before the stage does)."""
+    return _kept(model, assess_adequacy)
 
 
 def _noise_gains(model):
