@@ -182,6 +182,23 @@ def _data(n=3000, **signals):
     return Data.from_recording(Recording(TS, base)), t
 
 
+def test_a_dead_time_drop_stiff_about_zero_current_leaves_the_model_within_its_sigma():
+    """A 0.745 V dead-time drop fading over 25 mA at 10 kHz (sweep seed 50): about zero current it acts as a 30 ohm
+    resistance beside R = 6.6 ohm, so the current settles within the band some 20 us into an interval. Its terms
+    taken along a current path without the drop, L came out 1.5 % low (5.5 sigma), Km and m 0.7 % low; along the
+    path the fitted drop bends, the fade current is found within 3 % and every nominal parameter within 3 sigma."""
+    params = {'resistance': 6.598, 'inductance': 8.098e-4, 'emf_constant': 4.513, 'mass': 0.02469, 'damping': 1.433,
+              'load_force': 0.0}
+    drive = {'dead_time_drop': 0.745, 'offset': -0.085, 'current_band': 0.0247}
+    recording, truth = record(1.5, params=params, effects=[('drive_voltage_error', drive)], seed=50,
+                              sample_period=1e-4, substeps=16)
+    diagnosis = diagnose(recording)
+    result = diagnosis.to_dict()
+    assert [e['effect'] for e in result['effects']] == ['drive_voltage_error'], result['candidates']
+    assert settings(diagnosis, 'drive_voltage_error')['current_scale'] == pytest.approx(0.0247, rel=0.03)
+    assert not _within_three_sigma(result, truth)
+
+
 def test_a_fractional_delay_moves_the_position_and_keeps_its_noise_white():
     def signal(t):
         return 1e-3 * np.sin(2 * np.pi * 60 * t)

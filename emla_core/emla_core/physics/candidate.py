@@ -68,6 +68,8 @@ class Candidate:
     # parameters held at zero, the bound their sign allows, because the data asked for the other sign (the
     # workflow's constrained refit); kw_only, so that subclasses' fields may go without defaults
     pinned: tuple = dataclasses.field(default=(), kw_only=True, repr=False, compare=False)
+    # its parameters' values in the fit this variant was last refitted in (path_voltage)
+    fitted: tuple = dataclasses.field(default=(), kw_only=True, repr=False, compare=False)
 
     def free(self):
         """Per parameter: 1.0 where it is fitted, 0.0 where it is pinned (its columns are zeroed)."""
@@ -88,6 +90,12 @@ class Candidate:
         return None
 
     def inductance(self, s):
+        return None
+
+    def path_voltage(self, current):
+        """(voltage, its slope d/dI) that this candidate's terms, at its `fitted` values, take from the drive at
+        the currents `current`, where they are steep enough in the current to bend its path through an interval
+        (a dead-time drop); None where they are not (the default)."""
         return None
 
     def force(self, s):

@@ -20,12 +20,13 @@ leave-one-block-out fit and its error on the block it left out cost one small so
 held-out (cross-validated) residuals and delete-one-block jackknife uncertainties, which stay honest when
 residuals are coloured (by correlations shorter than a block).
 """
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.signal import lfilter
 
 from emla_core.errors import InputError
+from emla_core.physics import Candidate
 from emla_core.recording import Recording
 
 from .data import regression_rows
@@ -146,7 +147,10 @@ def fit(data, candidates=(), reference=None, *, relinearise=True, about=None):
         reference = nominal_fit(data)
         if not candidates:
             return reference
-    result = solve(data, candidates, reference.linearised_about if about is None else about, reference.sigma)
+    about = reference.linearised_about if about is None else about
+    result = solve(data, candidates, about, reference.sigma)
+    if any(_bends(c) for c in candidates):   # again, the current's path bent by the terms as fitted
+        result = solve(data, _fitted(result), about, reference.sigma)
     return _refined(data, candidates, result) if relinearise else result
 
 
@@ -168,13 +172,25 @@ def _refined(data, candidates, result):
     for _ in range(RELINEARISATIONS):
         if not physical(result.parameters):
             break
-        refit = solve(data, candidates, result.parameters, result.sigma, added=result.added)
+        refit = solve(data, _fitted(result), result.parameters, result.sigma, added=result.added)
         if not physical(refit.parameters):
             break
         gain, result = chi_square(result, refit.rms) - chi_square(refit, refit.rms), refit
         if gain < ENOUGH:
             break
     return result
+
+
+def _fitted(fit):
+    """The Fit's candidates, those whose terms bend the current's path (Candidate.path_voltage) holding their values
+    in it: the refit about it takes the path the fitted terms give."""
+    return tuple(replace(c, fitted=tuple(map(float, fit.added[part]))) if _bends(c) else c
+                 for c, part in fit.added_slices())
+
+
+def _bends(candidate):
+    """Do the candidate's terms bend the current's path (Candidate.path_voltage)?"""
+    return type(candidate).path_voltage is not Candidate.path_voltage
 
 
 def chi_square(fit, scale):

@@ -15,9 +15,9 @@ held over each interval the row spans (physical.input_gains): an extra voltage d
 gain, a force f (opposing +x) as f times the load's gain, an extra inductance l as the voltage l dI/dt it takes.
 
 - Electrical rows (the interval [t_k-1, t_k]): the terms at the middle of each of PIECES equal parts of the
-  interval (the position and velocity of the cubic spline through the measured positions, the current going from
-  the interval's start to its end: linearly for a voltage term, along the model's own path for a force or an
-  inductance term, Rows._path), each weighted by the row's gain of an input over that part
+  interval (the position and velocity of the cubic spline through the measured positions, the current along the
+  model's own path from the interval's start to its end, bent by a term stiff in the current: Rows._path), each
+  weighted by the row's gain of an input over that part
   (physical.piece_gains): the row does not weigh an interval's parts equally (a voltage acts on I_k the more the
   later it comes, through L/R).
 - Mechanical rows (the intervals [t_k-1, t_k+1]): the terms at the middle of each of MECHANICAL_PIECES parts of
@@ -67,6 +67,12 @@ def _linearised(kind, q0, sample_period):
 def _piece_gains(kind, q0, sample_period, pieces):
     """physical.piece_gains_jacobian at the model q0 (a tuple), kept for the Rows linearised about it."""
     return piece_gains_jacobian(kind, np.array(q0), sample_period, pieces)
+
+
+@functools.lru_cache(maxsize=64)
+def _substep(q0, sample_period, pieces):
+    """(P, G, H) of the model q0 (a tuple) over one of the 2 `pieces` equal steps of an interval (Rows._bent)."""
+    return transition(np.array(q0), sample_period / (2 * pieces))
 
 
 @functools.lru_cache(maxsize=64)
@@ -184,10 +190,11 @@ class Rows:
 
     def _terms(self, candidates, rows, current):
         """Per candidate: (voltage terms, load-force terms) at each piece of the row (pieces x n x parameters, zero
-        where it has none, and the load's where it is given between the samples). Force and inductance terms are
-        taken at the current along the model's path (_path), an extra inductance l(I, x) as the voltage l dI/dt
-        with the path's rate over the piece; voltage terms at the current linear in time."""
-        pieces, paths = self._electrical(rows, current) if self.kind == 'electrical' else self._samples(rows)
+        where it has none, and the load's where it is given between the samples). The terms are taken at the current
+        along the model's path (_path), an extra inductance l(I, x) as the voltage l dI/dt with the path's rate over
+        the piece."""
+        pieces, paths = self._electrical(rows, current, candidates) if self.kind == 'electrical' \
+            else self._samples(rows, candidates)
         out = []
         for c in candidates:
             shape = (len(pieces), len(pieces[0].index), len(c.parameters))
@@ -195,7 +202,7 @@ class Rows:
             between = c.force_between(self.data) is not None
             for j, state in enumerate(pieces):
                 along = state if paths is None else replace(state, current=paths[0][j])   # on the model's path
-                e, f = c.voltage(state), None if between else c.force(along)
+                e, f = c.voltage(along), None if between else c.force(along)
                 inductance = None if paths is None else c.inductance(along)
                 if e is not None:
                     voltage[j] = e.T
@@ -206,20 +213,51 @@ class Rows:
             out.append((voltage, load))
         return out
 
-    def _path(self, j, start, end, pieces):
+    def _path(self, j, start, end, pieces, candidates):
         """(the current at the middle of each of `pieces` parts of the intervals [t_j, t_j+1], its mean rate over
         each part): the model's own path from `start` under the interval's voltage (the coil's L/R bends it: at a
         2 kHz logger a step's current rises mostly early in the interval), moved linearly in time to meet `end`.
         Taken as linear instead, a saturating inductance's l dI/dt lands late in the interval, and the rows' unequal
         weighting of its parts turns that into a bias of Km, m and B (7-30 sigma at 2-3 kHz; docs/physics.md 6.3).
-        A voltage term in the current (a dead-time drop) keeps the linear current: this path lacks the drop."""
+        A candidate's voltage stiff in the current (Candidate.path_voltage) bends the path as well (_bent), and
+        where its slope dV/dI holds the current the path is moved the less, by R / (R + slope): there the current
+        forgets its start within microseconds, and moving it to the measured end would spread that sample's noise
+        over the interval (5 mA against a 25 mA band: the fade current found 8 % wide, L 0.5 % off)."""
         ts = self.data.sample_period
         signals = self.data.signals
         s = np.stack((start, signals['position'][j], self.data.velocity()[j]))
-        p, g, h = _within(tuple(self.q0[:6]), ts, pieces)
-        model = p @ s + np.outer(g, signals['voltage'][j]) + h[:, None] * self.q0[5]
-        path = model + np.linspace(0.0, 1.0, len(model))[:, None] * (end - model[-1])
+        bends = [c for c in candidates if c.path_voltage(start) is not None]
+        anchor = np.linspace(0.0, 1.0, 2 * pieces + 1)[:, None]   # the share of the miss at the end moved in
+        if bends:
+            model, slope = self._bent(s, signals['voltage'][j], bends, pieces)
+            anchor = anchor * (self.q0[0] / (self.q0[0] + slope))
+        else:
+            p, g, h = _within(tuple(self.q0[:6]), ts, pieces)
+            model = p @ s + np.outer(g, signals['voltage'][j]) + h[:, None] * self.q0[5]
+        path = model + anchor * (end - model[-1])
         return list(path[1::2]), list((path[2::2] - path[:-1:2]) * (pieces / ts))
+
+    def _bent(self, s, voltage, bends, pieces):
+        """(the model's currents, the slopes dV/dI of the candidates' `bends` voltages there) at 2 `pieces` + 1
+        equal steps through the intervals from the states s (3 x n) under the held `voltage` less those voltages at
+        the current (Candidate.path_voltage). A dead-time drop V_d reversing over I_eps acts about zero current as a
+        resistance V_d / I_eps, up to 30 times R (time constants of 20 us): the current settles within the band
+        early in an interval, and a path without the drop puts it there late (L 1 % off at 10 kHz). Each step takes
+        the drop implicitly in its slope, so stable at any stiffness."""
+        def drop(current):
+            drops = [c.path_voltage(current) for c in bends]
+            return sum(d[0] for d in drops), np.maximum(sum(d[1] for d in drops), 0.0)
+        p, g, h = _substep(tuple(self.q0[:6]), self.data.sample_period, pieces)
+        value, slope = drop(s[0])
+        out, slopes = [s[0]], [slope]
+        for _ in range(2 * pieces):
+            free = p @ s + np.outer(g, voltage - value) + h[:, None] * self.q0[5]
+            value = value + slope * (free[0] - s[0]) / (1.0 + g[0] * slope)
+            s = p @ s + np.outer(g, voltage - value) + h[:, None] * self.q0[5]
+            value, slope = drop(s[0])
+            out.append(s[0])
+            slopes.append(slope)
+        return np.array(out), np.array(slopes)
 
     def _step(self, rows, start):
         """The model's I_k from I_k-1 = `start` (and the rows' other regressors)."""
@@ -237,12 +275,11 @@ class Rows:
                  'load_slopes': load_slopes}[name]
         return gains[0] if electrical else gains.reshape((-1,) + gains.shape[2:])   # both intervals' parts in turn
 
-    def _electrical(self, rows, current):
+    def _electrical(self, rows, current, candidates):
         """([the states along the interval [t_k-1, t_k] at the middle of each of its PIECES parts], _path's currents
-        and rates there): the position and velocity of the cubic spline through the measured positions, the current
-        going linearly from the interval's start to its end (the measured one; in a prediction, the model's step),
-        so that a term steep in the current (a dead-time drop reversing within a few mA) is taken where it acts
-        within the interval rather than at its mean current."""
+        and rates there, from the interval's start to its end: the measured currents, or in a prediction the model's
+        step): the position and velocity of the cubic spline through the measured positions, the current linear in
+        time (the terms take _path's instead: _terms)."""
         k = self.index[rows]
         between = self.data.between(PIECES)
         start = self.phi[rows, 0] if current is None else current
@@ -250,9 +287,9 @@ class Rows:
         position, velocity = between['position'][k - 1], between['velocity'][k - 1]   # one gather, then views
         return [State(self.data, k - 1, position=position[:, m], velocity=velocity[:, m],
                       current=start + (m + 0.5) / PIECES * (end - start), voltage=self.phi[rows, 1])
-                for m in range(PIECES)], self._path(k - 1, start, end, PIECES)
+                for m in range(PIECES)], self._path(k - 1, start, end, PIECES, candidates)
 
-    def _samples(self, rows):
+    def _samples(self, rows, candidates):
         """([the states at the middle of each of the MECHANICAL_PIECES parts of the intervals [t_k-1, t_k] and
         [t_k, t_k+1], in turn], _path's currents and rates there or None for the force regression): the cubic
         spline's position and velocity, the current (or force) linear between its samples, the voltage held. A
@@ -267,7 +304,7 @@ class Rows:
             ends = {name: (values[j], values[j + 1])
                     for name, values in self.data.signals.items() if name != 'position'}
             if path:
-                more = self._path(j, *ends['current'], MECHANICAL_PIECES)
+                more = self._path(j, *ends['current'], MECHANICAL_PIECES, candidates)
                 currents += more[0]
                 rates += more[1]
             for m in range(MECHANICAL_PIECES):

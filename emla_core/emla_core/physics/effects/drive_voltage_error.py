@@ -36,6 +36,14 @@ class _Candidate(Candidate):
     def voltage(self, s):
         return np.stack((np.tanh(s.current / self.current_scale), np.ones_like(s.current)))
 
+    def path_voltage(self, current):
+        """About zero current the drop acts as a resistance V_d / I_eps, up to tens of times R."""
+        if not self.fitted:
+            return None
+        drop, offset = self.fitted
+        shape = np.tanh(current / self.current_scale)
+        return drop * shape + offset, drop * (1.0 - shape * shape) / self.current_scale
+
     def reported(self, values, stds, model):
         out = super().reported(values, stds, model)
         out['equivalent_current_offset'] = (float(-values[1] / model['resistance']),
