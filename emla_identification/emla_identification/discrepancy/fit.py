@@ -39,13 +39,16 @@ ENOUGH = 1.0           # chi-square a refit must gain for the next one (_refined
 SYSTEMATIC_PREFILTERS = (0.8, 0.95)   # alternatives whose estimates bound the misfit bias (with_systematic)
 
 
-def design(data, model, candidates, rho=PREFILTER, added=None):
+def design(data, model, candidates, rho=PREFILTER, added=None, kept=None):
     """{kind: (nominal columns, target, candidate columns)} of the regressions about `model` and the candidates'
     parameters `added` (None: zero); the mechanical rows prefiltered with `rho` (None: not prefiltered), those where
-    a candidate holds the part still set to the measured second difference alone."""
+    a candidate holds the part still set to the measured second difference alone. `kept`: a dict that receives each
+    regression's Rows."""
     out = {}
     for kind in data.kinds:
         rows = Rows(data, kind, model)
+        if kept is not None:
+            kept[kind] = rows
         nominal, target, extra = rows.nominal, rows.target, rows.columns(candidates)
         if added is not None and len(added):
             nominal = nominal + rows.slopes(candidates, added)
@@ -234,7 +237,8 @@ def physical(parameters):
 
 def solve(data, candidates, model, sigma, rho=PREFILTER, added=None):
     """The Fit of `candidates` about `model` (and their parameters `added`) with row weights 1/sigma (module doc)."""
-    blocks = design(data, model, candidates, rho, added)
+    regressions = {}
+    blocks = design(data, model, candidates, rho, added, regressions)
     kinds = tuple(blocks)
     names = nominal_names(data)
     n = len(names) + sum(len(c.parameters) for c in candidates)
@@ -247,7 +251,7 @@ def solve(data, candidates, model, sigma, rho=PREFILTER, added=None):
     for j, kind in enumerate(kinds):
         nominal, target, extra = blocks[kind]
         z = np.column_stack((nominal, extra, target))
-        w = z if kind != 'electrical' else np.column_stack((Rows(data, kind, model).instruments(candidates), target))
+        w = z if kind != 'electrical' else np.column_stack((regressions[kind].instruments(candidates), target))
         for f in range(FOLDS):
             zf, wf = z[bounds[f]:bounds[f + 1]], w[bounds[f]:bounds[f + 1]]
             sums[f, j] = zf.T @ zf / sigma[kind] ** 2

@@ -97,6 +97,7 @@ class Rows:
         self.index = regression_rows(data)
         self.voltage_gains, self.load_gains, self.voltage_slopes, self.load_slopes = gains
         self.shaped = self._voltage_shape()
+        self._kept, self._kept_terms = (), None   # the candidates _terms last gave all rows' terms for, and those
         self.prediction = self.phi @ self.coefficients
         if self.shaped is not None:
             self.prediction = self.prediction + self.shaped @ self._shape_gains()[0]
@@ -193,6 +194,10 @@ class Rows:
         where it has none, and the load's where it is given between the samples). The terms are taken at the current
         along the model's path (_path), an extra inductance l(I, x) as the voltage l dI/dt with the path's rate over
         the piece."""
+        whole = current is None and rows == slice(None)   # the fit's columns, its slopes and instruments: kept
+        if whole and self._kept_terms is not None and len(self._kept) == len(candidates) \
+                and all(a is b for a, b in zip(self._kept, candidates)):
+            return self._kept_terms
         pieces, paths = self._electrical(rows, current, candidates) if self.kind == 'electrical' \
             else self._samples(rows, candidates)
         out = []
@@ -211,6 +216,8 @@ class Rows:
                 if f is not None:
                     load[j] = f.T
             out.append((voltage, load))
+        if whole:
+            self._kept, self._kept_terms = tuple(candidates), out
         return out
 
     def _path(self, j, start, end, pieces, candidates):
@@ -251,9 +258,10 @@ class Rows:
         value, slope = drop(s[0])
         out, slopes = [s[0]], [slope]
         for _ in range(2 * pieces):
-            free = p @ s + np.outer(g, voltage - value) + h[:, None] * self.q0[5]
-            value = value + slope * (free[0] - s[0]) / (1.0 + g[0] * slope)
-            s = p @ s + np.outer(g, voltage - value) + h[:, None] * self.q0[5]
+            held = p @ s + h[:, None] * self.q0[5]
+            free = held[0] + g[0] * (voltage - value)   # the current the step reaches at the drop of its start
+            value = value + slope * (free - s[0]) / (1.0 + g[0] * slope)
+            s = held + np.outer(g, voltage - value)
             value, slope = drop(s[0])
             out.append(s[0])
             slopes.append(slope)
@@ -299,14 +307,18 @@ class Rows:
         between = self.data.between(MECHANICAL_PIECES)
         states, currents, rates = [], [], []
         path = self.kind == 'mechanical'   # the force regression has no coil
+        if path:   # on each interval once: a row's second is the next row's first
+            spans = np.union1d(k - 1, k)
+            current = self.data.signals['current']
+            along = self._path(spans, current[spans], current[spans + 1], MECHANICAL_PIECES, candidates)
         for j in (k - 1, k):
             position, velocity = between['position'][j], between['velocity'][j]   # one gather, then views
             ends = {name: (values[j], values[j + 1])
                     for name, values in self.data.signals.items() if name != 'position'}
             if path:
-                more = self._path(j, *ends['current'], MECHANICAL_PIECES, candidates)
-                currents += more[0]
-                rates += more[1]
+                at = np.searchsorted(spans, j)
+                currents += [c[at] for c in along[0]]
+                rates += [r[at] for r in along[1]]
             for m in range(MECHANICAL_PIECES):
                 share = (m + 0.5) / MECHANICAL_PIECES
                 others = {name: first if name == 'voltage' else (1.0 - share) * first + share * last
