@@ -9,7 +9,9 @@ Each term method gets a state s (emla_identification.discrepancy.data: current, 
 force, time at the samples s.index; measured when regressing, predicted when simulating) and returns a (q, n)
 array, or None when the candidate has no term of that kind. Terms that need a signal's history (a thermal
 state, a friction direction) compute it from the measured data once per variant and read it at s.index.
-A candidate may instead (or as well) re-align the data (`realigned`), as a sensor delay does.
+A candidate may instead (or as well) re-align the data (`realigned`), as a sensor delay does. A voltage term so
+steep in the current that it bends the current's path through an interval (a dead-time drop) also gives it at
+the values it was last fitted with (`path_voltage`, `fitted`).
 `variants(data)` lists the configurations to search (e.g. thermal time constants, delays); the best one
 represents the candidate.
 

@@ -154,7 +154,7 @@ def fit(data, candidates=(), reference=None, *, relinearise=True, about=None):
     result = solve(data, candidates, about, reference.sigma)
     if any(_bends(c) for c in candidates):   # again, the current's path bent by the terms as fitted
         result = solve(data, _fitted(result), about, reference.sigma)
-    return _refined(data, candidates, result) if relinearise else result
+    return _refined(data, result) if relinearise else result
 
 
 def nominal_fit(data, start=None):
@@ -165,7 +165,7 @@ def nominal_fit(data, start=None):
     return solve(data, (), start, solve(data, (), start, weights).rms)
 
 
-def _refined(data, candidates, result):
+def _refined(data, result):
     """`result` refitted about itself (Gauss-Newton) while a refit still improves the fit by more than ENOUGH
     (chi-square units of the refit's own residuals: a step worth less than about a sigma is not taken further) and
     stays a possible
