@@ -30,7 +30,7 @@ from emla_core.physics import Candidate
 from emla_core.recording import Recording
 
 from .data import regression_rows
-from .rows import Rows, nominal_names
+from .rows import Rows, bending, nominal_names
 
 FOLDS = 10
 PREFILTER = 0.9
@@ -152,8 +152,8 @@ def fit(data, candidates=(), reference=None, *, relinearise=True, about=None):
             return reference
     about = reference.linearised_about if about is None else about
     result = solve(data, candidates, about, reference.sigma)
-    if any(_bends(c) for c in candidates):   # again, the current's path bent by the terms as fitted
-        result = solve(data, _fitted(result), about, reference.sigma)
+    if 'resistance' in about and bending(_fitted(result), data, about['resistance']):
+        result = solve(data, _fitted(result), about, reference.sigma)   # the current's path bent by the fitted terms
     return _refined(data, result) if relinearise else result
 
 

@@ -43,6 +43,18 @@ from .data import PARTS, State, regression_rows
 PIECES = 8   # parts of an electrical row's interval its terms are taken on, each at its middle (_electrical)
 MECHANICAL_PIECES = 4   # and of each of a mechanical row's two intervals (_samples)
 INSTRUMENT_LAG = 2   # rows: an electrical row's error holds the noise of samples k-1 and k; these hold k-3, k-2
+BEND = 0.05   # a candidate's voltage bends the current's path where its slope dV/dI reaches this share of R (bending)
+
+
+def bending(candidates, data, resistance):
+    """The candidates whose voltage, at their fitted values (Candidate.path_voltage), is steep enough somewhere over
+    the data's currents to bend the current's path through an interval: a slope dV/dI above BEND times the
+    resistance. A gentler one (a weak drop, a drop fading over a wide band, a sensor offset's V_0 alone) moves the
+    path by less than the move to the measured end corrects, and bending costs: sweep cases with a drive named took
+    1.5-3 times as long (Rows._bent)."""
+    current = data.signals['current']
+    return [c for c in candidates
+            if (voltage := c.path_voltage(current)) is not None and np.max(voltage[1]) > BEND * resistance]
 
 
 def nominal_names(data):
@@ -233,7 +245,7 @@ class Rows:
         ts = self.data.sample_period
         signals = self.data.signals
         s = np.stack((start, signals['position'][j], self.data.velocity()[j]))
-        bends = [c for c in candidates if c.path_voltage(start) is not None]
+        bends = bending(candidates, self.data, self.q0[0])
         anchor = np.linspace(0.0, 1.0, 2 * pieces + 1)[:, None]   # the share of the miss at the end moved in
         if bends:
             model, slope = self._bent(s, signals['voltage'][j], bends, pieces)
