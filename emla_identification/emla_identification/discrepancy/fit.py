@@ -168,10 +168,9 @@ def nominal_fit(data, start=None):
 def _refined(data, result):
     """`result` refitted about itself (Gauss-Newton) while a refit still improves the fit by more than ENOUGH
     (chi-square units of the refit's own residuals: a step worth less than about a sigma is not taken further) and
-    stays a possible
-    actuator, at most RELINEARISATIONS times. A model that misses an effect may have no finite optimum (a
-    missing spring lets the mass grow without bound at ever smaller gains): the refits stop where the evidence
-    for moving does."""
+    stays a possible actuator, at most RELINEARISATIONS times. A model that misses an effect may have no finite
+    optimum (a missing spring lets the mass grow without bound at ever smaller gains): the refits stop where the
+    evidence for moving does."""
     for _ in range(RELINEARISATIONS):
         if not physical(result.parameters):
             break
