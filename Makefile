@@ -20,10 +20,12 @@ setup:
 
 # The tests run on TEST_WORKERS pytest-xdist processes (default: the core count), a test file per worker at a
 # time (--dist loadfile: a module's fixtures are built once); every ROS test takes a domain of its own (locked).
+# One BLAS thread per worker: two workers' numpy on 2 cores with two threads each nearly doubled the CPU time
+# of a discrepancy test for the same wall time.
 # make test fuzzes the commands with TEST_FUZZ_CASES mutated inputs (make sweep: FUZZ_CASES).
 TEST_WORKERS ?= $(shell nproc)
 TEST_FUZZ_CASES ?= 300
-PYTEST := $(VENV)/bin/python -m pytest -n $(TEST_WORKERS) --dist loadfile
+PYTEST := OPENBLAS_NUM_THREADS=1 $(VENV)/bin/python -m pytest -n $(TEST_WORKERS) --dist loadfile
 
 test: setup lint
 	EMLA_FUZZ_CASES=$(TEST_FUZZ_CASES) $(PYTEST) -m "not slow" tests

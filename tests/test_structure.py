@@ -195,3 +195,13 @@ def test_the_readme_python_example_runs_and_finds_the_truth(tmp_path):
         name, value, _, std, _, true = line.replace(')', '').split()
         assert float(value) == pytest.approx(float(true), rel=5e-3), line
     assert lines[-1] == 'coulomb_friction'
+
+
+def test_every_slow_and_kept_name_is_a_test():
+    """A renamed test must not leave conftest's SLOW or KEPT and slip into (or out of) `make test` unseen."""
+    from conftest import KEPT, SLOW
+    defined = {module: {node.name for node in ast.walk(ast.parse((REPO / 'tests' / module).read_text()))
+                        if isinstance(node, ast.FunctionDef)} for module in SLOW}
+    stale = [f'{module}::{name}' for module, names in SLOW.items() for name in names if name not in defined[module]]
+    stale += [name for name in KEPT if not any(name.split('[')[0] in names for names in SLOW.values())]
+    assert not stale, stale
