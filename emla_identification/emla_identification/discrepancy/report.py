@@ -151,7 +151,7 @@ def _markdown(diagnosis, before):
                               'new candidate (`register_candidate`) must depend on the signal at the top of its list.',
                               '']}[verdict]
     if d['warnings']:
-        lines += ['**Warnings**: the estimates point to data in other units or signs than they were read in.', '',
+        lines += ['**Warnings** (an implausible estimate, or a choice of model the parameters depend on):', '',
                   *(f'- {w}' for w in d['warnings']), '']
     if d['effects']:
         lines += ['## Effects named, in turn', '',
