@@ -307,9 +307,9 @@ class Diagnosis:
                 f'the data do not tell {stage.assessment.name} from {r.name} (each predicts some equation at least '
                 f'{RIVAL:g} times better than the other): the re-identified parameters\' uncertainty includes the '
                 'difference between the two' for stage in self.stages for r in stage.rivals] + [
-                f'the data show {a.name} (better in {a.blocks_improved} of {FOLDS} held-out blocks), too small to '
-                f'name (it removes {100 * a.score:.2g} % of the one-step error): the re-identified parameters\' '
-                'uncertainty includes what adding it changes' for a in self.unnamed],
+                f'the data show {a.name}, not named (better in {a.blocks_improved} of {FOLDS} held-out blocks, it '
+                f'removes {100 * a.score:.2g} % of the one-step error): the re-identified parameters\' uncertainty '
+                'includes what adding it changes' for a in self.unnamed],
         }
 
 
