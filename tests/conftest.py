@@ -35,6 +35,8 @@ SLOW = {
                                      'test_a_hidden_residual_magnetism_is_named_and_every_parameter_comes_back',
                                      'test_hidden_eddy_currents_are_named_and_every_parameter_comes_back',
                                      'test_a_saturation_and_a_friction_together_are_both_named'),
+    # the sweep's 20 kHz pair whose best score is a partial match (~25 s): make test keeps its 2 and 5 kHz cases
+    'test_discrepancy_sweep.py': ('test_a_best_score_that_only_partly_matches_gives_way_to_the_next_candidate',),
     'test_solenoid_observer.py': ('test_other_records_and_a_constant_r_within_two_percent',),
     'test_solenoid_identification.py': ('test_the_errors_over_noise_realisations_are_about_one_reported_sigma',),
     # not the discrepancy's: the grey box's sigma against the scatter over 16 noise realisations (25-40 s)
