@@ -131,7 +131,7 @@ class Assessment:
     @property
     def shown(self):
         """Better in most held-out blocks (SHOWN_BLOCKS), resolved, of a possible sign and physical: the data show
-        the effect though it may be too small to matter (a score below MIN_SCORE) and so go unnamed."""
+        the effect, named or not (too small to matter, a score below MIN_SCORE, or a partial match)."""
         return (self.blocks_improved >= SHOWN_BLOCKS and self.score > 0 and self.resolved and self.plausible
                 and physical(self.fit.parameters))
 
@@ -224,7 +224,7 @@ class Diagnosis:
     @property
     def unnamed(self) -> list:
         """The candidates not named that the data show beside the final model (Assessment.shown): too small to
-        matter for the verdict, they may still move the nominal parameters by many sigmas (a dead-time drop of
+        name, or a partial match; either may still move the nominal parameters by many sigmas (a dead-time drop of
         5 mV fading over 46 mA, 1.3 times the floor in power: R 0.06 % = 15 sigma, the drop better in 9 of 10
         held-out blocks)."""
         return [a for a in self.remaining if a.shown]
@@ -400,9 +400,11 @@ def _named(data, base, adequacy, chosen, ranked):
     partial = None
     for assessment in ([chosen] + [a for a in ranked if a is not chosen and a.evident])[:TRIES]:
         tried = _tried(data, base, adequacy, assessment)
-        if tried is not None and tried.named:
+        if tried is None:
+            continue
+        if tried.named:
             return tried, partial
-        if partial is None and tried is not None and tried.significant:
+        if partial is None and tried.significant:
             partial = tried
     return None, partial
 
