@@ -35,13 +35,7 @@ def assert_sensible(diagnosis):
 
 
 @pytest.mark.parametrize('effects, delays, named, verdict', [
-    pytest.param(['resistance_drift'], {'current': 3, 'position': 3}, {'sensor_delay', 'resistance_drift'},
-                 'explained', marks=pytest.mark.xfail(strict=True, reason=(
-                     'make test-all only; fails since c14e880 at least: among saturated leaders workflow._chosen '
-                     'compares each fit in its own noise floor, and a 2.8-sample filter, whose floor is 5-6 times '
-                     "the delay's, is named before the delay (3.000 leaves less in volts and newtons); judged in "
-                     "the base model's floor the delay and the drift are named, explained, but case 205 then "
-                     'names a position inductance first'))),
+    (['resistance_drift'], {'current': 3, 'position': 3}, {'sensor_delay', 'resistance_drift'}, 'explained'),
     ([make_effect('inductance_saturation'), make_effect('coulomb_friction', force=1.0)], None,
      {'coulomb_friction', 'inductance_saturation'}, None),
 ], ids=['drift+delay', 'saturation+friction'])

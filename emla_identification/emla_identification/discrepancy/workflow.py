@@ -458,12 +458,15 @@ def _nominal(data, recording, names):
 def _chosen(ranked):
     """The assessment to name next among `ranked` (best score first): the first if it is evident (else None); but
     where several evident ones remove most (MOST) of the held-out one-step error, the one whose fit leaves the
-    least disagreement (the adequacy test's low band over the floor). Near 1 per equation the scores differ by
+    least disagreement (the adequacy test's low band, _left, in the lowest floor among them: each fit's own is
+    fitted to its residual and rises with its misfit; docs/physics.md 7). Near 1 per equation the scores differ by
     the noise: behind a 2 kHz position filter at 10 kHz a delay of about tau scored 1.014 and the filter 1.013,
     and the delay left the force balance at 38 times its floor, the filter at 1.3."""
     leaders = [a for a in ranked if a.evident and a.score >= MOST]
     if len(leaders) > 1:
-        return min(leaders, key=lambda a: _disagreement(_adequacy(a.fit)))
+        bands = [_adequacy(a.fit) for a in leaders]
+        unit = {equation: min(b[equation].floor for b in bands) for equation in bands[0]}
+        return min(zip(leaders, bands), key=lambda pair: _left(pair[1], unit))[0]
     return ranked[0] if ranked and ranked[0].evident else None
 
 
@@ -494,6 +497,12 @@ def removed_share(before, after):
 def _disagreement(adequacy):
     """The low-band residual power above the noise floor, in floor units, summed over the equations."""
     return sum(max(a.ratio - 1.0, 0.0) for a in adequacy.values())
+
+
+def _left(adequacy, unit):
+    """The log of the product over the equations of the low-band residual power in `unit` ({equation: floor}),
+    the floor added: a factor gained in either equation counts alike, whatever their units."""
+    return sum(np.log1p((a.size / unit[e]) ** 2) if unit[e] > 0 else np.inf for e, a in adequacy.items())
 
 
 def rank(base, candidates):
