@@ -53,13 +53,15 @@ SLOW = {
     # compare command (test_outputs), its figures' axes, the discrepancy on a damaged bag (identify's stays), play
     # from a sqlite3 bag (mcap stays), the live ARX identifier (the grey box stays), a flag shared with import,
     # the solenoid's node identifying it whole and following its resistance (its position estimate stays), the
-    # valve fleet's trend (the moving coil's stays), identify's every bad input (the commands' fuzzing stays)
+    # valve fleet's trend (the moving coil's stays), identify's every bad input (the commands' fuzzing stays), a
+    # foreign CSV's unit slips (test_plausibility warns of each, and the flag that undoes one stays here)
     'test_model_file.py': ('test_compare_shows_the_augmented_model_fitting_better_than_the_nominal',),
     'test_plot_axes.py': ('test_the_discrepancy_report_and_compare_figures',),
     'test_damaged_inputs.py': ('test_commands_on_a_bag_with_a_corrupt_chunk',),
     'test_play_echo.py': ('test_a_live_identifier_fed_by_play_agrees_with_offline_identification',
                           'test_a_live_identifier_in_arx_mode_ends_with_the_offline_arx_model'),
-    'test_foreign_data.py': ('test_discrepancy_and_import_take_the_same_flags',),
+    'test_foreign_data.py': ('test_discrepancy_and_import_take_the_same_flags',
+                             'test_a_unit_or_sign_slip_is_warned_about_with_its_fix'),
     'test_solenoid_node.py': ('test_the_identifier_node_identifies_a_whole_solenoid_online',
                               'test_the_identifier_node_follows_a_solenoids_resistance'),
     'test_solenoid_control.py': ('test_a_fleet_of_valves_is_trended_with_the_solenoids_parameters',),
@@ -67,7 +69,8 @@ SLOW = {
 }
 KEPT = {'test_a_hidden_friction_is_named_and_the_mechanics_come_back[0.05-8]',
         'test_commands_on_a_bag_with_a_corrupt_chunk[identify]',
-        'test_a_live_identifier_fed_by_play_agrees_with_offline_identification[mcap]'}
+        'test_a_live_identifier_fed_by_play_agrees_with_offline_identification[mcap]',
+        'test_a_unit_or_sign_slip_is_warned_about_with_its_fix[negated current, flipped back]'}
 
 
 def pytest_collection_modifyitems(items):
