@@ -63,7 +63,7 @@ RECORDED = {
     **{topic: (SAMPLE_FRAME, 'frame') for topic in MEASURED_TOPICS.values()},
     COMMAND_TOPIC: (SAMPLE_FRAME, 'frame'),
     REFERENCE_TOPIC: (SAMPLE_FRAME, 'frame'),
-    TRUE_PARAMETERS_TOPIC: (PARAMETER_ESTIMATE, 'latched'),
+    TRUE_PARAMETERS_TOPIC: (PARAMETER_ESTIMATE, 'frame'),  # the record's truth: every change kept
     PARAMETERS_TOPIC: (PARAMETER_ESTIMATE, 'latched'),
     EFFECTS_TOPIC: (EFFECT_ESTIMATE, 'latched'),
     DONE_TOPIC: (TIME, 'latched'),

@@ -24,7 +24,7 @@ Aligned by stamp (as emla_core.bag.read_bag does), the state samples at t_j pair
 |----------------------------------------|---------------------------------|------------|---------|
 | /emla/plant/frames                     | emla_msgs/SignalFrames (truth)  | plant      | FRAME   |
 | /emla/plant/{voltage,current,position} | emla_msgs/SampleFrame (truth)   | plant      | FRAME   |
-| /emla/plant/parameters                 | emla_msgs/ParameterEstimate     | plant      | LATCHED |
+| /emla/plant/parameters                 | emla_msgs/ParameterEstimate     | plant      | FRAME   |
 | /emla/plant/done                       | builtin_interfaces/Time         | plant      | LATCHED |
 | /clock                                 | rosgraph_msgs/Clock             | plant      | CLOCK   |
 | /emla/{voltage,current,position}       | emla_msgs/SampleFrame (measured)| sensor     | FRAME   |
@@ -33,7 +33,8 @@ Aligned by stamp (as emla_core.bag.read_bag does), the state samples at t_j pair
 | /emla/arx_model (instead, model arx)   | emla_msgs/ArxModel              | identifier | LATCHED |
 | /diagnostics                           | diagnostic_msgs/DiagnosticArray | identifier*| DIAGNOSTICS |
 FRAME: reliable, transient local, keep last 1000 (1 s of default frames: a reader outside the loop, such as a
-non-adaptive controller's identifier or a recorder, may lag that much without losing frames);
+non-adaptive controller's identifier or a recorder, may lag that much without losing frames; the true parameters,
+which change every 1 ms in a ramp, are kept so too);
 LATCHED: reliable, transient local, keep last 1 (a late subscriber gets the latest);
 CLOCK: best effort, volatile, keep last 1 (as rclpy's time source subscribes); DIAGNOSTICS: reliable, 10.
 *and the sensor's and controller's input faults (see Bad frames).

@@ -174,7 +174,9 @@ class PlantNode(EmlaNode):
         self.frames = frame_publishers(self, topics.PLANT_TOPICS)
         self.true_frames = {name: [] for name in topics.SIGNALS}  # (stamp, samples) not yet on PLANT_TOPICS
         self.together = self.create_publisher(SignalFrames, topics.PLANT_FRAMES_TOPIC, FRAME_QOS)
-        self.truth = self.create_publisher(ParameterEstimate, topics.TRUE_PARAMETERS_TOPIC, LATCHED_QOS)
+        # The truth is part of the record: kept as frames are (FRAME_QOS), so a recorder starved of CPU lags
+        # and loses none of a ramp's 1 ms steps (keep last 1 replaced unacknowledged ones)
+        self.truth = self.create_publisher(ParameterEstimate, topics.TRUE_PARAMETERS_TOPIC, FRAME_QOS)
         self.done = self.create_publisher(Time, topics.DONE_TOPIC, LATCHED_QOS)
         self.clock = self.create_publisher(Clock, topics.CLOCK_TOPIC, CLOCK_QOS)
         self.commands_in = self.create_subscription(SampleFrame, topics.COMMAND_TOPIC, self.on_command,
