@@ -67,6 +67,9 @@ class Candidate:
     signs: ClassVar[tuple] = ()        # per parameter: +1 / -1 when physics fixes its sign, 0 when it does not
 
     scale: ClassVar[str | None] = None   # a setting searched on a grid, then refined continuously (at())
+    # a discrete setting that reads the signals in different ways (a velocity over a wide or a narrow cubic): its
+    # variants carry different shares of the rows' noise, and the workflow chooses among them by what they leave
+    reading: ClassVar[str | None] = None
     # parameters held at zero, the bound their sign allows, because the data asked for the other sign (the
     # workflow's constrained refit); kw_only, so that subclasses' fields may go without defaults
     pinned: tuple = dataclasses.field(default=(), kw_only=True, repr=False, compare=False)

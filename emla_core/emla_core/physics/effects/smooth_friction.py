@@ -12,19 +12,33 @@ from ..effect import Effect, Parameter, register_effect
 PARAMETERS = (Parameter('friction_force', 'N', 1.0, lower=0.0, doc='Fc, the level at speeds well above v_s'),)
 SETTINGS = (Parameter('smoothing_speed', 'm/s', 1e-3, lower=1e-300, doc='v_s, over which the friction reverses'),)
 GRID = np.geomspace(1e-4, 0.1, 10)   # v_s tried, times the record's peak speed; then refined (Candidate.scale)
-SPAN = 5                             # samples each side of the local cubic that estimates the velocity
-PIECES = 8                           # parts of each interval the term is given on between the samples
+SPANS = (5, 2, 0)   # samples each side of the local cubic v is read from (measured_velocities); the first: a default
+PIECES = 8          # parts of each interval the term is given on between the samples
 
 
-def measured_velocity(data):
-    """The velocity the friction terms read: the slope of a local cubic through the measured position over
-    +-SPAN samples (Savitzky-Golay). The five-point difference of data.velocity() carries about ten times the
-    quantisation noise (a 1 um step at 10 kHz: 3 mm/s rms), which would smear a friction that changes over a few
-    mm/s; the cubic follows the fast strokes' jerk."""
-    from scipy.signal import savgol_filter  # here: the nodes that load the physics need no scipy
-    x = data.signals['position']
-    window = min(2 * SPAN + 1, len(x) // 2 * 2 - 1)
-    return savgol_filter(x, window, 3, deriv=1, delta=data.sample_period)
+def measured_velocities(data, pieces=PIECES):
+    """{span: (v at the samples, v at the middle of each of `pieces` equal parts of every interval)} for each span
+    of SPANS: the slope of a local cubic through the measured position over +-span samples (Savitzky-Golay), linear
+    between the samples; for span 0 the slope of the cubic spline through the samples, at and between them.
+
+    The friction candidates try each (variants: the held-out error chooses). A wide cubic averages the quantiser's
+    noise, which the five-point difference of data.velocity() carries tenfold (1 um at 10 kHz: 3 mm/s rms) and
+    which would smear a friction that turns over a few mm/s; but where the logger is slow it smears the strokes'
+    jerk: +-5 samples at 2-3 kHz left the force balance of a tanh over 8 mm/s at 25-64 times its floor, the spline
+    1.5-2. At 20 kHz the spline is the one that carries too much noise (3.5 times)."""
+    from scipy.interpolate import CubicSpline  # here: the nodes that load the physics need no scipy
+    from scipy.signal import savgol_filter
+    x, ts = data.signals['position'], data.sample_period
+    out = {}
+    for span in SPANS:
+        if span == 0:
+            spline = CubicSpline(np.arange(len(x)), x)
+            middles = np.arange(len(x) - 1)[:, None] + (np.arange(pieces) + 0.5) / pieces
+            out[span] = (spline(np.arange(len(x)), 1) / ts, spline(middles, 1) / ts)
+        else:
+            v = savgol_filter(x, min(2 * span + 1, len(x) // 2 * 2 - 1), 3, deriv=1, delta=ts)
+            out[span] = (v, at_pieces(v, pieces))
+    return out
 
 
 def at_pieces(values, pieces):
@@ -34,33 +48,42 @@ def at_pieces(values, pieces):
     return (1.0 - share) * values[:-1, None] + share * values[1:, None]
 
 
+def peak_speed(velocities):
+    """The record's peak speed the candidates' grids of v_s are relative to (on the widest cubic's velocity: one
+    grid for every span, so a refinement's neighbours are its own span's)."""
+    return max(float(np.max(np.abs(velocities[SPANS[0]][0]))), np.finfo(float).tiny)
+
+
 @dataclasses.dataclass(frozen=True)
 class _Candidate(Candidate):
-    """Fc tanh(v / v_s) as a force term, v the measured velocity (measured_velocity), in simulation too; v_s
-    searched over 1e-4 .. 0.1 times the record's peak speed, then refined. Between the samples (force_between) v
-    goes linearly over each interval: a friction steep in v turns within the interval where v crosses zero."""
+    """Fc tanh(v / v_s) as a force term, v the measured velocity (measured_velocities: each span a variant), in
+    simulation too; v_s searched over 1e-4 .. 0.1 times the record's peak speed, then refined. Between the samples
+    (force_between) v follows the span's velocity over each interval: a friction steep in v turns within the
+    interval where v crosses zero."""
 
     name: ClassVar[str] = 'smooth_friction'
     parameters, units = of_effect(PARAMETERS)
     acts_on: ClassVar[tuple] = ('mechanical', 'force')
     signs: ClassVar[tuple] = (1,)
+    reading: ClassVar[str] = 'velocity_span'
     scale: ClassVar[str] = 'smoothing_speed'
     smoothing_speed: float = 0.0   # m/s
+    velocity_span: int = SPANS[0]  # samples (measured_velocities)
     shape: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
     between: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
-    velocity: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
+    velocity: tuple = dataclasses.field(default=None, repr=False, compare=False)   # (at the samples, between)
 
     def variants(self, data):
-        velocity = measured_velocity(data)
-        peak = max(float(np.max(np.abs(velocity))), np.finfo(float).tiny)
-        with_velocity = dataclasses.replace(self, velocity=velocity)
-        return [with_velocity.at(data, peak * f) for f in GRID]
+        velocities = measured_velocities(data)
+        peak = peak_speed(velocities)
+        return [dataclasses.replace(self, velocity_span=span, velocity=v).at(data, peak * f)
+                for span, v in velocities.items() for f in GRID]
 
     def at(self, data, value):
-        velocity = self.velocity if self.velocity is not None else measured_velocity(data)
+        velocity = self.velocity if self.velocity is not None else measured_velocities(data)[self.velocity_span]
         return dataclasses.replace(self, smoothing_speed=float(value), velocity=velocity,
-                                   shape=np.tanh(velocity / float(value)),
-                                   between=np.tanh(at_pieces(velocity, PIECES) / float(value))[..., None])
+                                   shape=np.tanh(velocity[0] / float(value)),
+                                   between=np.tanh(velocity[1] / float(value))[..., None])
 
     def force(self, s):
         return self.shape[s.index][None]

@@ -14,7 +14,7 @@ import numpy as np
 from ..candidate import Candidate, of_effect
 from ..effect import Effect, Parameter, register_effect
 from .coulomb_friction import contact, position_noise
-from .smooth_friction import at_pieces, measured_velocity
+from .smooth_friction import SPANS, measured_velocities, peak_speed
 
 PARAMETERS = (Parameter('stribeck_force', 'N', 0.5, lower=0.0, doc='dF = Fs - Fc, the excess of the breakaway force'),)
 SETTINGS = (Parameter('stribeck_speed', 'm/s', 0.01, lower=1e-300, doc='v_s, over which the excess fades'),)
@@ -26,43 +26,39 @@ BAND = 6.0                           # the direction's pre-sliding band, in posi
 class _Candidate(Candidate):
     """dF d(t) exp(-(v / v_s)^2) as a force term: d the friction direction of coulomb_friction (the play
     operator on the measured position, band BAND position-noise sigmas: +-1 while sliding; followed between the
-    samples, coulomb_friction.contact), v the measured
-    velocity (smooth_friction.measured_velocity); v_s searched over 1e-3 .. 0.05 times the peak speed (above, it
-    would be a Coulomb friction), then
+    samples, coulomb_friction.contact), v the measured velocity (smooth_friction.measured_velocities: each span a
+    variant); v_s searched over 1e-3 .. 0.05 times the peak speed (above, it would be a Coulomb friction), then
     refined."""
 
     name: ClassVar[str] = 'stribeck_friction'
     parameters, units = of_effect(PARAMETERS)
     acts_on: ClassVar[tuple] = ('mechanical', 'force')
     signs: ClassVar[tuple] = (1,)
+    reading: ClassVar[str] = 'velocity_span'
     scale: ClassVar[str] = 'stribeck_speed'
     stribeck_speed: float = 0.0   # m/s
+    velocity_span: int = SPANS[0]  # samples (smooth_friction.measured_velocities)
     shape: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)      # at the samples
     between: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)    # per piece of interval
-    velocity: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
+    velocity: tuple = dataclasses.field(default=None, repr=False, compare=False)   # (at the samples, between)
     direction: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
     between_direction: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
 
     def variants(self, data):
-        prepared = self._prepared(data)
-        peak = max(float(np.max(np.abs(prepared.velocity))), np.finfo(float).tiny)
-        return [prepared.at(data, peak * f) for f in GRID]
-
-    def _prepared(self, data):
-        if self.velocity is not None:
-            return self
         x = data.signals['position']
-        noise = position_noise(x)[0]
-        terms = contact(x, BAND * noise, data.sample_period)
-        return dataclasses.replace(self, velocity=measured_velocity(data), direction=terms['direction'],
-                                   between_direction=terms['between'][..., 0])
+        terms = contact(x, BAND * position_noise(x)[0], data.sample_period)
+        velocities = measured_velocities(data, terms['between'].shape[1])
+        peak = peak_speed(velocities)
+        return [dataclasses.replace(self, velocity_span=span, velocity=v, direction=terms['direction'],
+                                    between_direction=terms['between'][..., 0]).at(data, peak * f)
+                for span, v in velocities.items() for f in GRID]
 
     def at(self, data, value):
-        prepared = self._prepared(data)
-        fade = np.exp(-(prepared.velocity / float(value)) ** 2)
-        pieces = prepared.between_direction.shape[1]   # the velocity linear over each interval between the samples
-        between = prepared.between_direction * np.exp(-(at_pieces(prepared.velocity, pieces) / float(value)) ** 2)
-        return dataclasses.replace(prepared, stribeck_speed=float(value), shape=prepared.direction * fade,
+        if self.velocity is None:   # a model file's: its span's velocity and the direction
+            return next(v for v in self.variants(data) if v.velocity_span == self.velocity_span).at(data, value)
+        fade = np.exp(-(self.velocity[0] / float(value)) ** 2)
+        between = self.between_direction * np.exp(-(self.velocity[1] / float(value)) ** 2)
+        return dataclasses.replace(self, stribeck_speed=float(value), shape=self.direction * fade,
                                    between=between[..., None])
 
     def force(self, s):
