@@ -665,7 +665,7 @@ def _best_reading(base, variants, about):
     _chosen). The held-out error rewards a reading that shares the rows' own noise: a friction's velocity over a
     narrow cubic carries the position quantiser's noise that the force balance holds too, and at 10 kHz it was
     chosen for a tanh over 5 mm/s, v_s read 16 % low and the force balance left at 3.3 times its floor (the wide
-    cubic: 1 %, 1.1)."""
+    cubic: 1 %, 2.1)."""
     key = variants[0].reading
     if key is None:
         return _best_variant(base, variants, about)
