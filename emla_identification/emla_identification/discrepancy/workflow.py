@@ -522,14 +522,14 @@ def assess(base, candidate):
     grey-box estimate of the data as its best variant re-aligns them; the fit that predicts the held-out blocks
     better is kept."""
     variants = candidate.variants(base.data)
-    best = _best_reading(base, variants, base.linearised_about)
+    best, result = _best_reading(base, variants, base.linearised_about)
     moved = best.realigned(base.data)
-    result = fit(moved, base.candidates + (best,), base)
+    result = result or fit(moved, base.candidates + (best,), base)
     if moved is not base.data and (not physical(result.parameters) or
                                    _heldout_total(result) <= (1.0 - MOST) * base.heldout.sum()):
         start = _realigned_start(moved)
         if start is not None:
-            again = _best_reading(base, variants, start)
+            again = _best_reading(base, variants, start)[0]
             result = min((result, fit(again.realigned(base.data), base.candidates + (again,), base, about=start)),
                          key=_heldout_total)
     return _within_signs(base, _judged(base, result))
@@ -660,22 +660,23 @@ def _forbidden(candidate, values, stds):
 
 
 def _best_reading(base, variants, about):
-    """_best_variant; where the candidate reads the signals in several ways (Candidate.reading), _best_variant of
-    each, and of those the one whose fit leaves the least disagreement (_left, in the lowest floor among them, as
-    _chosen). The held-out error rewards a reading that shares the rows' own noise: a friction's velocity over a
-    narrow cubic carries the position quantiser's noise that the force balance holds too, and at 10 kHz it was
-    chosen for a tanh over 5 mm/s, v_s read 16 % low and the force balance left at 3.3 times its floor (the wide
-    cubic: 1 %, 2.1)."""
+    """(_best_variant, None); where the candidate reads the signals in several ways (Candidate.reading),
+    _best_variant of each, and of those the one whose fit leaves the least disagreement (_left, in the lowest floor
+    among them, as _chosen), with that fit. The held-out error rewards a reading that shares the rows' own noise: a
+    friction's velocity over a narrow cubic carries the position quantiser's noise that the force balance holds
+    too, and at 10 kHz it was chosen for a tanh over 5 mm/s, v_s read 16 % low and the force balance left at 3.3
+    times its floor (the wide cubic: 1 %, 2.1)."""
     key = variants[0].reading
     if key is None:
-        return _best_variant(base, variants, about)
+        return _best_variant(base, variants, about), None
     ways = {}
     for variant in variants:
         ways.setdefault(getattr(variant, key), []).append(variant)
     bests = [_best_variant(base, way, about) for way in ways.values()]
-    bands = [_adequacy(fit(best.realigned(base.data), base.candidates + (best,), base)) for best in bests]
+    fits = [fit(best.realigned(base.data), base.candidates + (best,), base) for best in bests]
+    bands = [_adequacy(result) for result in fits]
     unit = {equation: min(b[equation].floor for b in bands) for equation in bands[0]}
-    return min(zip(bests, bands), key=lambda pair: _left(pair[1], unit))[0]
+    return min(zip(bests, fits, bands), key=lambda found: _left(found[2], unit))[:2]
 
 
 def _best_variant(base, variants, about):
