@@ -21,11 +21,11 @@ def measured_velocities(data, pieces=PIECES):
     of SPANS: the slope of a local cubic through the measured position over +-span samples (Savitzky-Golay), linear
     between the samples; for span 0 the slope of the cubic spline through the samples, at and between them.
 
-    The friction candidates try each (variants: the held-out error chooses). A wide cubic averages the quantiser's
-    noise, which the five-point difference of data.velocity() carries tenfold (1 um at 10 kHz: 3 mm/s rms) and
-    which would smear a friction that turns over a few mm/s; but where the logger is slow it smears the strokes'
-    jerk: +-5 samples at 2-3 kHz left the force balance of a tanh over 8 mm/s at 25-64 times its floor, the spline
-    1.5-2. At 20 kHz the spline is the one that carries too much noise (3.5 times)."""
+    The friction candidates try each (variants; Candidate.reading: the fit that leaves least is kept). A wide cubic
+    averages the quantiser's noise, which the five-point difference of data.velocity() carries tenfold (1 um at
+    10 kHz: 3 mm/s rms) and which would smear a friction that turns over a few mm/s; but where the logger is slow
+    it smears the strokes' jerk: +-5 samples at 2-3 kHz left the force balance of a tanh over 8 mm/s at 25-64 times
+    its floor, the spline 1.5-2. At 20 kHz the spline is the one that carries too much noise (3.5 times)."""
     from scipy.interpolate import CubicSpline  # here: the nodes that load the physics need no scipy
     from scipy.signal import savgol_filter
     x, ts = data.signals['position'], data.sample_period
@@ -80,10 +80,9 @@ class _Candidate(Candidate):
                 for span, v in velocities.items() for f in GRID]
 
     def at(self, data, value):
-        velocity = self.velocity if self.velocity is not None else measured_velocities(data)[self.velocity_span]
-        return dataclasses.replace(self, smoothing_speed=float(value), velocity=velocity,
-                                   shape=np.tanh(velocity[0] / float(value)),
-                                   between=np.tanh(velocity[1] / float(value))[..., None])
+        """The variant (of `variants`: its velocity read) at v_s = `value`."""
+        return dataclasses.replace(self, smoothing_speed=float(value), shape=np.tanh(self.velocity[0] / float(value)),
+                                   between=np.tanh(self.velocity[1] / float(value))[..., None])
 
     def force(self, s):
         return self.shape[s.index][None]

@@ -54,8 +54,7 @@ class _Candidate(Candidate):
                 for span, v in velocities.items() for f in GRID]
 
     def at(self, data, value):
-        if self.velocity is None:   # a model file's: its span's velocity and the direction
-            return next(v for v in self.variants(data) if v.velocity_span == self.velocity_span).at(data, value)
+        """The variant (of `variants`: its velocity and direction read) at v_s = `value`."""
         fade = np.exp(-(self.velocity[0] / float(value)) ** 2)
         between = self.between_direction * np.exp(-(self.velocity[1] / float(value)) ** 2)
         return dataclasses.replace(self, stribeck_speed=float(value), shape=self.direction * fade,
