@@ -15,6 +15,7 @@ from .discrepancy.candidates import CANDIDATES
 from .discrepancy.data import Data
 from .discrepancy.fit import ModelOnData, fit, physical, with_systematic
 from .discrepancy.rows import nominal_names
+from .discrepancy.workflow import best_weighted
 
 
 def from_greybox(result, data, command):
@@ -96,7 +97,8 @@ def identified_structure(structure, recording, data, command, source='model file
 
 def identify_model(model, recording, source='model file'):
     """The model's structure (nominal + its effects) identified on `recording`: the joint Fit, each effect's
-    variant (a delay, a time constant) searched again on these data."""
+    variant (a delay, a time constant) searched again on these data, each equation weighed by its own residual
+    where that leaves less disagreement (discrepancy.workflow.best_weighted)."""
     data = Data.from_recording(recording)
     with np.errstate(all='ignore'):
         current = fit(data)
@@ -109,6 +111,8 @@ def identify_model(model, recording, source='model file'):
                 return error if np.isfinite(error) else np.inf
             best = min(candidate.variants(data), key=heldout)
             current = fit(best.realigned(data), current.candidates + (best,), current)
+        if model.effects:
+            current = best_weighted(current)
     if not physical(current.parameters):
         raise InputError(f'{recording.source}: the model cannot be identified from these data')
     return current

@@ -41,7 +41,7 @@ def profiled(fit, raw):
         for factor in (1.0 - STEP, 1.0 + STEP):
             candidates = fit.candidates[:i] + (candidate.at(raw, value * factor),) + fit.candidates[i + 1:]
             sides.append(solve(realigned(raw, candidates), candidates, fit.linearised_about, fit.sigma,
-                               added=fit.linearised_added))
+                               added=fit.linearised_added, weights=fit.weights))
         low, high = sides
         slope = (high.kept - low.kept) / 2.0
         curvature = (high.kept + low.kept) / 2.0 - fit.kept
