@@ -24,7 +24,7 @@ setup:
 # of a discrepancy test for the same wall time.
 # make test fuzzes the commands with TEST_FUZZ_CASES mutated inputs (make sweep: FUZZ_CASES).
 TEST_WORKERS ?= $(shell nproc)
-TEST_FUZZ_CASES ?= 300
+TEST_FUZZ_CASES ?= 150
 PYTEST := OPENBLAS_NUM_THREADS=1 $(VENV)/bin/python -m pytest -n $(TEST_WORKERS) --dist loadfile
 
 test: setup lint

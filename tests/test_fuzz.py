@@ -4,7 +4,7 @@ process (each case in a child forked from it: a crash or a hang is a finding, no
 one: no traceback and no exception but SystemExit, exit status 0 or 2, no input file changed, within CASE_TIMEOUT
 s, in MEMORY_LIMIT bytes of address space.
 
-EMLA_FUZZ_CASES sets the number of cases (default 2000; `make test` runs 500, `make sweep` 20000) and
+EMLA_FUZZ_CASES sets the number of cases (default 2000; `make test` runs 150, `make sweep` 20000) and
 EMLA_FUZZ_SEED the seed (default 0): case k of a seed is the same input and command line on every run, so a
 finding is replayed by its seed and case (EMLA_FUZZ_FIRST=k EMLA_FUZZ_CASES=1). Inputs of failing cases are kept
 under EMLA_FUZZ_KEEP (a directory) when it is set.
