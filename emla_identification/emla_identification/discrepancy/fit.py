@@ -112,7 +112,7 @@ class Fit(ModelOnData):
 
     added_std: np.ndarray  # the added parameters' jackknife one-sigma
     sigma: dict            # kind -> the reference's residual std: heldout and kept are in its units
-    weights: dict          # kind -> the residual std whose inverse weighs the rows in the solve (_refined: its own)
+    weights: dict          # kind -> the residual std whose inverse weighs the rows (sigma, or self_weighted's)
     rms: dict              # kind -> this fit's residual std
     heldout: np.ndarray    # (FOLDS, kinds): weighted residual sum of squares of each block when left out
     std: dict              # the nominal parameters' jackknife one-sigma
@@ -191,7 +191,7 @@ def self_weighted(result):
     model with the effect then leans on the other equation, whose weak hold on a shared parameter can carry its noise
     (a 770 N/m return spring at 2 kHz: the mass 0.8 % and k 0.85 % off, the force balance left at 14 times its
     floor; weighed by its own, 1.02 times, k within 0.03 %). Weighed by its own, though, an equation that keeps a
-    misfit can drag what the other fixes (workflow.reweighted chooses)."""
+    misfit can drag what the other fixes (workflow.best_weighted chooses)."""
     data = result.data
     return _refined(data, solve(data, _fitted(result), result.parameters, result.sigma, added=result.added,
                                 weights=result.rms))
