@@ -459,15 +459,14 @@ def _nominal(data, recording, names):
 def _chosen(ranked):
     """The assessment to name next among `ranked` (best score first): the first if it is evident (else None); but
     where several evident ones remove most (MOST) of the held-out one-step error, the one whose fit leaves the
-    least disagreement (the adequacy test's low band, _left, in the lowest floor among them: each fit's own is
-    fitted to its residual and rises with its misfit; docs/physics.md 7). Near 1 per equation the scores differ by
+    least disagreement (the adequacy test's low band, _least_left: in the lowest floor among them, as each fit's own
+    is fitted to its residual and rises with its misfit; docs/physics.md 7). Near 1 per equation the scores differ by
     the noise: behind a 2 kHz position filter at 10 kHz a delay of about tau scored 1.014 and the filter 1.013,
     and the delay left the force balance at 38 times its floor, the filter at 1.3."""
     leaders = [a for a in ranked if a.evident and a.score >= MOST]
     if len(leaders) > 1:
         bands = [_adequacy(a.fit) for a in leaders]
-        unit = {equation: min(b[equation].floor for b in bands) for equation in bands[0]}
-        return min(zip(leaders, bands), key=lambda pair: _left(pair[1], unit))[0]
+        return leaders[_least_left(bands)]
     return ranked[0] if ranked and ranked[0].evident else None
 
 
@@ -498,6 +497,13 @@ def removed_share(before, after):
 def _disagreement(adequacy):
     """The low-band residual power above the noise floor, in floor units, summed over the equations."""
     return sum(max(a.ratio - 1.0, 0.0) for a in adequacy.values())
+
+
+def _least_left(bands):
+    """The index of the adequacy among `bands` (of fits to the same data) that leaves the least disagreement: _left
+    in the lowest floor among them, per equation (each fit's own floor rises with its misfit); the first of equals."""
+    unit = {equation: min(b[equation].floor for b in bands) for equation in bands[0]}
+    return min(range(len(bands)), key=lambda i: _left(bands[i], unit))
 
 
 def _left(adequacy, unit):
@@ -611,8 +617,7 @@ def released(base, assessment):
         return assessment
     free = tuple(replace(c, pinned=()) for c in result.candidates[:-1]) + result.candidates[-1:]
     again = fit(result.data, free, base, about=result.parameters)
-    if any(_forbidden(c, again.added[part], again.added_std[part]) for c, part in again.added_slices()) \
-            or not _heldout_total(again) < _heldout_total(result):
+    if _crosses_a_sign(again) or not _heldout_total(again) < _heldout_total(result):
         return assessment
     return _judged(base, again)
 
@@ -627,19 +632,16 @@ def reweighted(base, assessment):
 def best_weighted(result):
     """The Fit `result`, where it leaves some equation above its floor, refitted with each equation weighed by its
     own residual (fit.self_weighted), if then none of its candidates' parameters crosses its sign and the fit leaves
-    less disagreement (as _chosen compares leaders: _left in the lower floor of the two); `result` itself
-    otherwise. The emla_sim twin of a Coulomb friction at 10 kHz keeps its force balance at 14 times the floor
-    either way; weighed by its own, it drags L 6 % and leaves the electrical equation at 14 times too: not taken.
-    A fit within its floors is kept as it is: there the weights move the estimates within the noise."""
+    less disagreement (_least_left, as _chosen compares leaders); `result` itself otherwise. The emla_sim twin of a
+    Coulomb friction at 10 kHz keeps its force balance at 14 times the floor either way; weighed by its own, it
+    drags L 6 % and leaves the electrical equation at 14 times too: not taken. A fit within its floors is kept as
+    it is: there the weights move the estimates within the noise."""
     if all(a.adequate for a in _adequacy(result).values()):
         return result
     again = self_weighted(result)
-    if not physical(again.parameters) or any(_forbidden(c, again.added[part], again.added_std[part])
-                                             for c, part in again.added_slices()):
+    if not physical(again.parameters) or _crosses_a_sign(again):
         return result
-    bands = [_adequacy(result), _adequacy(again)]
-    unit = {equation: min(b[equation].floor for b in bands) for equation in bands[0]}
-    return again if _left(bands[1], unit) < _left(bands[0], unit) else result
+    return (result, again)[_least_left([_adequacy(result), _adequacy(again)])]
 
 
 def _searched_again(raw, base, model, candidates, i):
@@ -677,6 +679,11 @@ def _judged(base, result):
                       parameters, best.settings(), resolved, not _forbidden(best, values, stds))
 
 
+def _crosses_a_sign(result):
+    """Does some candidate of the Fit `result` have a parameter it resolves at a sign physics forbids (_forbidden)?"""
+    return any(_forbidden(c, result.added[part], result.added_std[part]) for c, part in result.added_slices())
+
+
 def _forbidden(candidate, values, stds):
     """The candidate's parameters the data resolve (MIN_T sigmas from zero) at a sign physics forbids (an
     unresolved one's sign is the noise's)."""
@@ -686,8 +693,8 @@ def _forbidden(candidate, values, stds):
 
 def _best_reading(base, variants, about):
     """(_best_variant, None); where the candidate reads the signals in several ways (Candidate.reading),
-    _best_variant of each, and of those the one whose fit leaves the least disagreement (_left, in the lowest floor
-    among them, as _chosen), with that fit. The held-out error rewards a reading that shares the rows' own noise: a
+    _best_variant of each, and of those the one whose fit leaves the least disagreement (_least_left, as _chosen),
+    with that fit. The held-out error rewards a reading that shares the rows' own noise: a
     friction's velocity over a narrow cubic carries the position quantiser's noise that the force balance holds
     too, and at 10 kHz it was chosen for a tanh over 5 mm/s, v_s read 16 % low and the force balance left at 3.3
     times its floor (the wide cubic: 1 %, 2.1)."""
@@ -699,9 +706,8 @@ def _best_reading(base, variants, about):
         ways.setdefault(getattr(variant, key), []).append(variant)
     bests = [_best_variant(base, way, about) for way in ways.values()]
     fits = [fit(best.realigned(base.data), base.candidates + (best,), base) for best in bests]
-    bands = [_adequacy(result) for result in fits]
-    unit = {equation: min(b[equation].floor for b in bands) for equation in bands[0]}
-    return min(zip(bests, fits, bands), key=lambda found: _left(found[2], unit))[:2]
+    best = _least_left([_adequacy(result) for result in fits])
+    return bests[best], fits[best]
 
 
 def _best_variant(base, variants, about):
