@@ -72,5 +72,8 @@ def test_a_parameter_resolved_at_a_forbidden_sign_is_held_at_its_bound_and_the_r
     assert assessment.fit.candidates[-1].pinned == ('dead_time_drop',) and 'held at 0' in assessment.evidence
     assert assessment.significant and assessment.plausible
     assert assessment.parameters['dead_time_drop'] == (0.0, 0.0)
+    # the final fit reports it the same way (Diagnosis.added_parameters, the model file): exactly the bound, no std
+    _, values, stds = assessment.fit.each_added(assessment.fit.added_std)[-1]
+    assert str(values[0]) == '0.0' and stds[0] == 0.0 and values[1] != 0.0 and stds[1] > 0.0
     offset, std = assessment.parameters['equivalent_current_offset']
     assert abs(offset + 0.2) < 3.0 * std < 1e-3

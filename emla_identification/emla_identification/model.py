@@ -49,10 +49,9 @@ def from_fit(final, names, data, command, std=None):
     std, added_std = std if std is not None else with_systematic(final)
     nominal = {k: (v, std.get(k)) for k, v in final.parameters.items() if k != 'sample_period'}
     effects = [ModelEffect(name, candidate.name,
-                           {p: (float(v), float(s)) for p, v, s in zip(candidate.parameters, final.added[part],
-                                                                       added_std[part])},
+                           {p: (float(v), float(s)) for p, v, s in zip(candidate.parameters, values, stds)},
                            candidate.settings())
-               for name, (candidate, part) in zip(names, final.added_slices())]
+               for name, (candidate, values, stds) in zip(names, final.each_added(added_std))]
     return Model(final.data.sample_period, nominal, effects, provenance(data, command))
 
 

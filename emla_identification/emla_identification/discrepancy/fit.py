@@ -121,6 +121,13 @@ class Fit(ModelOnData):
     bounds: np.ndarray     # regression rows of each block: bounds[f] .. bounds[f + 1]
     degrees_of_freedom: int  # of each equation's rows: rows less unknowns
 
+    def each_added(self, added_std):
+        """(candidate, its parameters' values, their one-sigma from `added_std`) of each candidate, a pinned
+        parameter exactly zero with no std: its zeroed columns leave the solve a round-off value (~1e-16) whose
+        round-off std would read as a figure known to 1e-14."""
+        return [(c, np.where(c.free() > 0, self.added[part], 0.0), np.where(c.free() > 0, added_std[part], 0.0))
+                for c, part in self.added_slices()]
+
     def heldout_residuals(self):
         """{kind: one-step residual of each regression row, each block's from the fit that left it out}."""
         out = {}

@@ -158,7 +158,8 @@ def _markdown(diagnosis, before):
                   '| effect | parameters (final joint fit, one sigma) | share of the disagreement removed | '
                   'gap after (NRMSE) |', '|---|---|---|---|']
         for effect in d['effects']:
-            params = '; '.join(f'{k} = {v:.6g} +- {effect["std"][k]:.2g}' for k, v in effect['parameters'].items())
+            params = '; '.join(f'{k} held at 0' if k in d['held_at_zero'] else
+                               f'{k} = {v:.6g} +- {effect["std"][k]:.2g}' for k, v in effect['parameters'].items())
             gaps = ', '.join(f'{s} {_figure(v)}' for s, v in effect['gap_after'].items())
             lines.append(f'| {effect["effect"]} | {params} | {100 * effect["share"]:.0f} % | {gaps} |')
         lines.append('')

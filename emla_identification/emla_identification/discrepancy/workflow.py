@@ -253,13 +253,18 @@ class Diagnosis:
         final, added_std = self.final, self.final_std[1]
         settings = self.profile[2] if self.profile else {}
         out = {}
-        for i, (candidate, part) in enumerate(final.added_slices()):
-            reported = candidate.reported(final.added[part], added_std[part], final.parameters)
+        for i, (candidate, values, stds) in enumerate(final.each_added(added_std)):
+            reported = candidate.reported(values, stds, final.parameters)
             if i in settings:   # a figure of the setting alone (a delay, a cutoff) takes its relative sigma
                 relative = settings[i] / getattr(candidate, candidate.scale)
                 reported = {k: (v, s if s else abs(v) * relative) for k, (v, s) in reported.items()}
             out.update(reported)
         return out
+
+    def held_at_zero(self) -> list[str]:
+        """The named effects' parameters held at zero in the final fit (the data asked for a sign physics forbids):
+        their value is the bound, their std 0 as no figure of them is estimated."""
+        return [name for c in self.final.candidates for name in c.pinned]
 
     def disagreement(self, model: str = 'final') -> dict[str, dict]:
         """{equation: size against the noise floor and the signals it depends on} of the final (or nominal)
@@ -301,6 +306,7 @@ class Diagnosis:
             'gap_after': {s: round(p.nrmse, 6) for s, p in self.after.items()},
             'added_parameters': {k: v for k, (v, _) in added.items()},
             'added_parameters_std': {k: s for k, (_, s) in added.items()},
+            'held_at_zero': self.held_at_zero(),
             'nominal_parameters': _rounded(self.nominal.parameters),
             'reidentified_parameters': _rounded(final.parameters),
             'reidentified_parameters_std': _rounded(self.final_std[0]),
@@ -670,8 +676,7 @@ def _judged(base, result):
     gain = base.heldout - heldout   # per block and equation; each equation's share removed, bounded:
     per_equation = [removed_share(b, a) for b, a in zip(base.heldout.sum(axis=0), heldout.sum(axis=0))]
     kinds = result.data.kinds
-    part = result.added_slices()[-1][1]
-    values, stds = result.added[part], result.added_std[part]
+    _, values, stds = result.each_added(result.added_std)[-1]
     parameters = best.reported(values, stds, result.parameters)
     resolved = not len(values) or bool(np.any((np.abs(values) >= MIN_T * stds)[best.free() > 0]))
     return Assessment(best.effect_name(values), result, float(sum(per_equation)),
