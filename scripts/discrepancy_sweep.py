@@ -400,7 +400,7 @@ def run_case(case, report=True):
                 sigma = _sigma(added[k], t, added_std.get(k))
                 out['effect_parameters'][k] = {
                     'value': added[k], 'std': added_std.get(k), 'truth': t, 'exact': exact, 'sigma': sigma,
-                    'held_at_zero': k in result['held_at_zero'],
+                    'held_at_zero': k in result.get('held_at_zero', ()),   # (older commits: no key)
                     'within': (abs(sigma) <= 3.0 if sigma is not None else
                                abs(added[k] - t) <= tolerance if tolerance is not None else None)}
         problems = numeric_problems(result)

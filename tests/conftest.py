@@ -44,9 +44,10 @@ SLOW = {
                                      'test_a_saturation_and_a_friction_together_are_both_named',
                                      'test_the_cli_gives_the_json_and_the_moving_coil_points_at_the_solenoid'),
     # the sweep's 20 kHz pair whose best score is a partial match (~25 s), its 2-sample delay polished (~11 s) and
-    # its 2 kHz spring weighed by its own residuals (~10 s)
+    # its 2 kHz spring weighed by its own residuals (~10 s), its 10 kHz friction's floor (~35 s)
     'test_discrepancy_sweep.py': ('test_a_best_score_that_only_partly_matches_gives_way_to_the_next_candidate',
                                   'test_a_spring_named_at_a_slow_logger_is_fitted_with_each_equation_weighed_by_its_own_residual',
+                                  'test_a_friction_read_through_a_band_of_a_few_noise_sigmas_is_judged_against_the_noise_it_reads',
                                   'test_a_setting_the_search_left_short_is_polished_to_its_minimum',
                                   'test_a_clean_record_is_adequate_and_a_strong_friction_is_named',
                                   'test_the_sweep_runs_on_dask_appends_and_resumes'),

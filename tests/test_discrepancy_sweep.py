@@ -74,6 +74,20 @@ def test_a_spring_named_at_a_slow_logger_is_fitted_with_each_equation_weighed_by
     assert all(abs(s) < 3.0 for s in r['nominal_sigma'].values()), r['nominal_sigma']
 
 
+def test_a_friction_read_through_a_band_of_a_few_noise_sigmas_is_judged_against_the_noise_it_reads():
+    """Sweep case 210: a 0.09 N Coulomb friction (a 2 um bristle) at 10 kHz on a 1 um quantiser. Named with Fc and
+    every nominal parameter within 2.5 sigma, yet its force balance was left at 3.6 times the rows' noise floor: the
+    candidate reads the friction's direction through a pre-sliding band a few position-noise sigmas wide, and the
+    position's noise through it is force at every stop. With that noise in the floor (adequacy._through_terms) the
+    force balance is at ~1.1 times it, and the case is explained."""
+    r = sweep.run_case(sweep.make_case(210), report=False)
+    assert r['error'] is None, r.get('traceback')
+    assert r['verdict'] == 'explained' and r['named'] == ['coulomb_friction'], r['disagreement_final']
+    assert r['disagreement_final']['mechanical']['ratio'] < 1.5
+    assert r['effect_parameters']['coulomb_force']['within']
+    assert all(abs(s) < 3.0 for s in r['nominal_sigma'].values()), r['nominal_sigma']
+
+
 def test_a_setting_the_search_left_short_is_polished_to_its_minimum():
     """Sweep case 196: a position 2 samples late at 5 kHz. The held-out search, linearised about the misaligned
     model, put the delay at 1.984 samples; one parabola step took it to 1.994, which left the force balance at 9.5

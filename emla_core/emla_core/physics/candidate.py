@@ -67,6 +67,10 @@ class Candidate:
     signs: ClassVar[tuple] = ()        # per parameter: +1 / -1 when physics fixes its sign, 0 when it does not
 
     scale: ClassVar[str | None] = None   # a setting searched on a grid, then refined continuously (at())
+    # the measured signals its terms read so steeply that their noise matters beside the rows' own (a friction
+    # read through a pre-sliding band a few position-noise sigmas wide, or through tanh(v / v_s) with v_s near the
+    # velocity's noise): the noise floor follows their noise through the terms (`reread`; discrepancy.adequacy)
+    reads: ClassVar[tuple] = ()
     # a discrete setting that reads the signals in different ways (a velocity over a wide or a narrow cubic): its
     # variants carry different shares of the rows' noise, and the workflow chooses among them by what they leave
     reading: ClassVar[str | None] = None
@@ -119,6 +123,10 @@ class Candidate:
         the force balance does not apply there (the part does not accelerate whatever the other forces);
         None if it never does."""
         return None
+
+    def reread(self, data):
+        """This variant with its terms read again from `data`, the same settings (a candidate that `reads`)."""
+        return self
 
     def settings(self):
         """Fixed settings of this variant, {name: value}, reported with the fitted parameters."""

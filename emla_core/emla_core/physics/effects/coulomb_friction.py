@@ -36,6 +36,7 @@ class _Candidate(Candidate):
     name: ClassVar[str] = 'coulomb_friction'
     parameters, units = of_effect(PARAMETERS)
     acts_on: ClassVar[tuple] = ('mechanical', 'force')
+    reads: ClassVar[tuple] = ('position',)
     signs: ClassVar[tuple] = (1, 1)
     scale: ClassVar[str] = 'presliding'
     presliding: float = 0.0   # m
@@ -59,6 +60,9 @@ class _Candidate(Candidate):
         if self.stuck is None:
             terms['stuck'] = None
         return dataclasses.replace(self, presliding=float(value), **terms)
+
+    def reread(self, data):
+        return self.at(data, self.presliding)
 
     def force(self, s):
         return np.stack((self.direction[s.index], self.rate[s.index]))

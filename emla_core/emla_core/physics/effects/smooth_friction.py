@@ -16,7 +16,7 @@ SPANS = (5, 2, 0)   # samples each side of the local cubic v is read from (measu
 PIECES = 8          # parts of each interval the term is given on between the samples
 
 
-def measured_velocities(data, pieces=PIECES):
+def measured_velocities(data, pieces=PIECES, spans=SPANS):
     """{span: (v at the samples, v at the middle of each of `pieces` equal parts of every interval)} for each span
     of SPANS: the slope of a local cubic through the measured position over +-span samples (Savitzky-Golay), linear
     between the samples; for span 0 the slope of the cubic spline through the samples, at and between them.
@@ -30,7 +30,7 @@ def measured_velocities(data, pieces=PIECES):
     from scipy.signal import savgol_filter
     x, ts = data.signals['position'], data.sample_period
     out = {}
-    for span in SPANS:
+    for span in spans:
         if span == 0:
             spline = CubicSpline(np.arange(len(x)), x)
             middles = np.arange(len(x) - 1)[:, None] + (np.arange(pieces) + 0.5) / pieces
@@ -64,6 +64,7 @@ class _Candidate(Candidate):
     name: ClassVar[str] = 'smooth_friction'
     parameters, units = of_effect(PARAMETERS)
     acts_on: ClassVar[tuple] = ('mechanical', 'force')
+    reads: ClassVar[tuple] = ('position',)
     signs: ClassVar[tuple] = (1,)
     reading: ClassVar[str] = 'velocity_span'
     scale: ClassVar[str] = 'smoothing_speed'
@@ -83,6 +84,10 @@ class _Candidate(Candidate):
         """The variant (of `variants`: its velocity read) at v_s = `value`."""
         return dataclasses.replace(self, smoothing_speed=float(value), shape=np.tanh(self.velocity[0] / float(value)),
                                    between=np.tanh(self.velocity[1] / float(value))[..., None])
+
+    def reread(self, data):
+        velocity = measured_velocities(data, spans=(self.velocity_span,))[self.velocity_span]
+        return dataclasses.replace(self, velocity=velocity).at(data, self.smoothing_speed)
 
     def force(self, s):
         return self.shape[s.index][None]

@@ -33,6 +33,7 @@ class _Candidate(Candidate):
     name: ClassVar[str] = 'stribeck_friction'
     parameters, units = of_effect(PARAMETERS)
     acts_on: ClassVar[tuple] = ('mechanical', 'force')
+    reads: ClassVar[tuple] = ('position',)
     signs: ClassVar[tuple] = (1,)
     reading: ClassVar[str] = 'velocity_span'
     scale: ClassVar[str] = 'stribeck_speed'
@@ -43,15 +44,24 @@ class _Candidate(Candidate):
     velocity: tuple = dataclasses.field(default=None, repr=False, compare=False)   # (at the samples, between)
     direction: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
     between_direction: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
+    band: float = dataclasses.field(default=0.0, repr=False, compare=False)   # the direction's pre-sliding band (m)
 
     def variants(self, data):
         x = data.signals['position']
-        terms = contact(x, BAND * position_noise(x)[0], data.sample_period)
+        band = BAND * position_noise(x)[0]
+        terms = contact(x, band, data.sample_period)
         velocities = measured_velocities(data, terms['between'].shape[1])
         peak = peak_speed(velocities)
         return [dataclasses.replace(self, velocity_span=span, velocity=v, direction=terms['direction'],
-                                    between_direction=terms['between'][..., 0]).at(data, peak * f)
+                                    between_direction=terms['between'][..., 0], band=band).at(data, peak * f)
                 for span, v in velocities.items() for f in GRID]
+
+    def reread(self, data):
+        terms = contact(data.signals['position'], self.band, data.sample_period)
+        pieces = terms['between'].shape[1]
+        velocity = measured_velocities(data, pieces, spans=(self.velocity_span,))[self.velocity_span]
+        return dataclasses.replace(self, velocity=velocity, direction=terms['direction'],
+                                   between_direction=terms['between'][..., 0]).at(data, self.stribeck_speed)
 
     def at(self, data, value):
         """The variant (of `variants`: its velocity and direction read) at v_s = `value`."""
