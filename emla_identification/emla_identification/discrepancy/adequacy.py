@@ -41,31 +41,41 @@ def noise_filters(fit, rows):
             for name, (dy, dphi) in noise_stencils(rows.kind, fit.data.sample_period).items()}
 
 
-def assess_adequacy(fit):
-    """{equation: Adequacy} of a Fit (noise_floor.low_band of its held-out residuals, in volts or newtons)."""
-    equations, quantities = _equations(fit)
+def assess_adequacy(fit, terms=True):
+    """{equation: Adequacy} of a Fit (noise_floor.low_band of its held-out residuals, in volts or newtons): the
+    floor of the sensors' noise through the rows and (`terms`) through the candidates' terms that read it
+    (_through_terms), or through the rows alone (rows_adequacy)."""
+    equations, quantities = _equations(fit, terms)
     return {EQUATION[kind]: Adequacy(band.size, band.floor, band.ratio, equation=EQUATION[kind],
                                      quantity=quantities[kind], residual=equations[kind][0])
             for kind, band in low_band(equations, fit.data.sample_period).items()}
 
 
+def rows_adequacy(fit):
+    """assess_adequacy against the floor of the noise through the rows alone, the one candidates are compared in
+    (a share of the disagreement removed, the least left): the floor a friction's terms add rises with its own
+    pre-sliding band and level, and would favour it over a candidate that reads no signal (a force saturation at
+    10 kHz, sweep case 173, was named a Stribeck friction)."""
+    return assess_adequacy(fit, terms=False)
+
+
 def sensor_noise(fit):
     """{signal: variance} of each measured signal's white noise, fitted to the high band of a Fit's held-out
-    residuals as assess_adequacy fits it (noise_floor.noise_variances)."""
-    return noise_variances(_equations(fit)[0], fit.data.sample_period)
+    residuals through the rows' stencils (noise_floor.noise_variances)."""
+    return noise_variances(_equations(fit, terms=False)[0], fit.data.sample_period)
 
 
-def _equations(fit):
-    """({kind: (held-out residual, {signal: its noise filter})} in physical units, {kind: the quantity}); the
-    filter of a signal some candidate's terms read (Candidate.reads) is realisations of its noise through the
-    rows and those terms (_through_terms)."""
+def _equations(fit, terms=True):
+    """({kind: (held-out residual, {signal: its noise filter})} in physical units, {kind: the quantity}); with
+    `terms`, the filter of a signal some candidate's terms read (Candidate.reads) is realisations of its noise
+    through the rows and those terms (_through_terms)."""
     equations, quantities, scales = {}, {}, {}
     for kind, residual in fit.heldout_residuals().items():
         rows = Rows(fit.data, kind, fit.linearised_about)
         scales[kind], quantities[kind] = rows.scale()
         equations[kind] = (residual * scales[kind],
                            {name: c * scales[kind] for name, c in noise_filters(fit, rows).items()})
-    read = sorted({name for c in fit.candidates for name in c.reads})
+    read = sorted({name for c in fit.candidates for name in c.reads}) if terms else ()
     if read:
         variances = noise_variances(equations, fit.data.sample_period)
         for name in read:
