@@ -375,7 +375,7 @@ def diagnose(data: Recording | Path | str | None = None, names: Sequence[str] | 
     check_magnitudes(recording)
     with numerical_failures(data.source, 'the model cannot be diagnosed'):   # degenerate data show up as
         nominal, warnings = _nominal(data, recording, names)                # non-finite or unphysical estimates
-        adequacy = assess_adequacy(nominal)
+        adequacy = _adequacy(nominal)   # (no candidate reads a signal: the rows' floor is the whole floor)
         ranked = rank(nominal, library(data, names))
         diagnosis = Diagnosis(data, nominal, ranked, adequacy, predict(nominal), warnings=warnings)
         current, left = nominal, ranked
