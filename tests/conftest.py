@@ -49,6 +49,7 @@ SLOW = {
                                   'test_a_spring_named_at_a_slow_logger_is_fitted_with_each_equation_weighed_by_its_own_residual',
                                   'test_a_friction_read_through_a_band_of_a_few_noise_sigmas_is_judged_against_the_noise_it_reads',
                                   'test_a_setting_the_search_left_short_is_polished_to_its_minimum',
+                                  'test_an_effect_named_first_has_its_setting_searched_again_beside_the_next',
                                   'test_a_clean_record_is_adequate_and_a_strong_friction_is_named',
                                   'test_the_sweep_runs_on_dask_appends_and_resumes'),
     'test_solenoid_observer.py': ('test_other_records_and_a_constant_r_within_two_percent',),

@@ -88,6 +88,21 @@ def test_a_friction_read_through_a_band_of_a_few_noise_sigmas_is_judged_against_
     assert all(abs(s) < 3.0 for s in r['nominal_sigma'].values()), r['nominal_sigma']
 
 
+def test_an_effect_named_first_has_its_setting_searched_again_beside_the_next():
+    """Sweep case 161: a Stribeck friction (0.04 N sliding, 0.10 N breakaway, a 2 um bristle) beside a 45 N/m
+    magnetic stiffness at 5 kHz. The friction is named first, its pre-sliding band chosen while the stiffness was
+    missing: 6.9 um, its level held at zero, and with the stiffness added the force balance was left at 16 times
+    its floor. Its band searched again beside the stiffness (workflow.backfitted) comes out near the bristle's, the
+    level is free again, and the model closes with the stiffness and every nominal parameter within 3 sigma."""
+    r = sweep.run_case(sweep.make_case(161), report=False)
+    assert r['error'] is None, r.get('traceback')
+    assert r['verdict'] == 'explained', r['disagreement_final']
+    assert r['named'] == ['coulomb_friction', 'magnetic_stiffness'] and sweep.success(r)
+    assert r['effect_parameters']['spring_stiffness']['within']
+    assert not r['effect_parameters']['coulomb_force']['held_at_zero']
+    assert all(abs(s) < 3.0 for s in r['nominal_sigma'].values()), r['nominal_sigma']
+
+
 def test_a_setting_the_search_left_short_is_polished_to_its_minimum():
     """Sweep case 196: a position 2 samples late at 5 kHz. The held-out search, linearised about the misaligned
     model, put the delay at 1.984 samples; one parabola step took it to 1.994, which left the force balance at 9.5
