@@ -687,10 +687,11 @@ def _chosen_again(raw, base, model, candidates, i):
     variant does better."""
     earlier = candidates[i]
     seen = realigned(raw, candidates[:i])
+    moved = realigned(raw, candidates)   # the same for every variant: this effect re-aligns nothing
 
     def error(variant):
         trial = candidates[:i] + (variant,) + candidates[i + 1:]
-        return _heldout_total(fit(realigned(raw, trial), trial, base, relinearise=False, about=model.parameters))
+        return _heldout_total(fit(moved, trial, base, relinearise=False, about=model.parameters))
     variants = earlier.variants(seen)
     best = _refined(min(variants, key=error), variants, error, seen)
     return best if error(best) < error(earlier) else earlier
