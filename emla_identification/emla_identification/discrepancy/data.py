@@ -23,7 +23,8 @@ from emla_core.errors import InputError
 from emla_identification.checks import missing_signals
 from emla_identification.regressors import HISTORY, LEAD, default_model, regressions_for
 
-THIRAN_ORDER = 3       # of the all-pass that moves a smooth signal by a fraction of a sample
+THIRAN_ORDER = 5       # of the all-pass that moves a smooth signal by a fraction of a sample (3 was not flat far
+                       # enough for a 2 kHz logger's fast motion: docs/physics.md 7)
 PARTS = 32              # equal parts of an interval a re-aligned voltage is described on (Data.voltage_parts)
 SMOOTH_DERIVATIVE = 7  # samples of the quartic whose slope undoes a position's filter (Data._undone)
 MAX_DELAY = 8          # samples a sensor delay may have; the last MAX_DELAY samples are kept for re-alignment
@@ -44,6 +45,9 @@ class Data:
     # the voltage's mean over each of PARTS parts of every interval (window and spare: samples x PARTS) where a
     # re-alignment left it not held over the interval (the exact rows take it so, rows.py); None: held
     voltage_parts: np.ndarray = None
+    # re-align with finer interpolators (an all-pass two orders higher; a position's slope unsmoothed): what the
+    # estimates do then bounds what the interpolation leaves in them (profile.finer)
+    finer: bool = False
     max_delay: ClassVar[int] = MAX_DELAY
 
     @classmethod
@@ -127,7 +131,7 @@ class Data:
                 if shift == round(shift):
                     full = np.concatenate((full[int(shift):], np.repeat(full[-1:], int(shift))))
                 else:
-                    full = _advanced(full, shift)
+                    full = _advanced(full, shift, THIRAN_ORDER + 2 * self.finer)
             signals[name], spare[name] = full[:n], full[n:]
         return replace(self, signals=signals, spare=spare, shaping=shaping, voltage_parts=parts)
 
@@ -196,15 +200,17 @@ class Data:
 
     def _undone(self, name, tau):
         """Data with the filter of `tau` undone on sensed signal `name`: w = y + tau dy/dt, dy/dt the Savitzky-Golay
-        derivative (a quartic through SMOOTH_DERIVATIVE samples, least squares). The three-point difference errs by
+        derivative (a quartic through SMOOTH_DERIVATIVE samples, least squares; where `finer`, the polynomial through
+        them, unsmoothed). The three-point difference errs by
         tau Ts^2 y'''/6 (R 0.03 %, 7 sigma, off on a 5 kHz record behind a 12.7 kHz position filter); the five-point
         one is exact to the same order as this but amplifies the noise by 0.90 tau^2/Ts^2 (this: 0.26), which the
         held-out search of tau penalises: it left tau 7 % short behind a 2 kHz filter at 10 kHz."""
         from scipy.signal import savgol_coeffs, savgol_filter
         ratio = tau / self.sample_period
         w = np.concatenate((self.signals[name], self.spare[name]))
-        out = w + ratio * savgol_filter(w, SMOOTH_DERIVATIVE, 4, deriv=1)
-        taps = ratio * savgol_coeffs(SMOOTH_DERIVATIVE, 4, deriv=1, use='dot')   # in sample order
+        degree = SMOOTH_DERIVATIVE - 1 if self.finer else 4
+        out = w + ratio * savgol_filter(w, SMOOTH_DERIVATIVE, degree, deriv=1)
+        taps = ratio * savgol_coeffs(SMOOTH_DERIVATIVE, degree, deriv=1, use='dot')   # in sample order
         taps[SMOOTH_DERIVATIVE // 2] += 1.0
         n = len(self)
         return replace(self, signals=dict(self.signals, **{name: out[:n]}), spare=dict(self.spare, **{name: out[n:]}),

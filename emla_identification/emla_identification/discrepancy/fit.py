@@ -235,15 +235,16 @@ def greybox_start(data):
     return result.parameters
 
 
-def with_systematic(fit, std=None, added_std=None, alternatives=SYSTEMATIC_PREFILTERS):
+def with_systematic(fit, std=None, added_std=None, alternatives=SYSTEMATIC_PREFILTERS, others=()):
     """(std of the nominal parameters, std of the added ones) of a Fit with a systematic part: the largest
     change of each estimate when the mechanical rows are prefiltered otherwise (a prefilter weighs the
-    frequencies differently; estimates that move with it carry a misfit bias the jackknife cannot see),
-    added in quadrature to the jackknife sigma (the fit's own, or `std` and `added_std` where given)."""
+    frequencies differently; estimates that move with it carry a misfit bias the jackknife cannot see), or in
+    the fits `others` (the same model solved otherwise: profile.finer), added in quadrature to the jackknife
+    sigma (the fit's own, or `std` and `added_std` where given)."""
     std = fit.std if std is None else std
     added_std = fit.added_std if added_std is None else added_std
     alternatives = [solve(fit.data, fit.candidates, fit.linearised_about, fit.sigma, rho, fit.linearised_added,
-                          fit.weights) for rho in alternatives]
+                          fit.weights) for rho in alternatives] + list(others)
     shift = {k: max(abs(a.parameters[k] - fit.parameters[k]) for a in alternatives) for k in fit.std}
     added_shift = np.max([np.abs(a.added - fit.added) for a in alternatives], axis=0) if len(fit.added) else fit.added
     return ({k: float(np.hypot(s, shift[k])) for k, s in std.items()}, np.hypot(added_std, added_shift))

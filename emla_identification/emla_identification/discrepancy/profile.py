@@ -9,6 +9,8 @@ setting and STEP either side (one linearised pass each, about the model the fit 
 parabola's vertex is that fit's own setting, and its estimates are moved to it along their slope. The jackknife
 of those moved estimates carries the setting's share; the spread of the vertices is the setting's own sigma.
 """
+from dataclasses import replace
+
 import numpy as np
 
 from .fit import jackknife_std, solve
@@ -23,6 +25,19 @@ def realigned(raw, candidates):
     for candidate in candidates:
         data = candidate.realigned(data)
     return data
+
+
+def finer(fit, raw):
+    """The Fit `fit` solved again, about the same model and weighted alike, on the data its candidates re-align
+    from the recorded `raw` with finer interpolators (Data.finer); None where they interpolate nothing
+    (no fractional shift of the position, no position filter undone). The estimates' change bounds what the
+    interpolation leaves in them (fit.with_systematic): a position 0.637 samples late at 2 kHz beside a
+    position-dependent inductance left Km and m 0.26 % low, 3.7 jackknife sigmas (docs/physics.md 3.5)."""
+    data = realigned(replace(raw, finer=True), fit.candidates)
+    if np.array_equal(data.signals['position'], fit.data.signals['position']):
+        return None
+    return solve(data, fit.candidates, fit.linearised_about, fit.sigma, added=fit.linearised_added,
+                 weights=fit.weights)
 
 
 def profiled(fit, raw):

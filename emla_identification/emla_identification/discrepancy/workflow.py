@@ -69,7 +69,7 @@ from .data import Data, regression_rows
 from .dependence import dependence, signals_of
 from .fit import FOLDS, Fit, design, fit, greybox_start, nominal_fit, physical, self_weighted, with_systematic
 from .predict import MECHANICAL_TIME, predict
-from .profile import profiled, realigned
+from .profile import finer, profiled, realigned
 from .residuals import binned, cross_correlation, whiteness
 from .rows import nominal_names
 from .start import rescue_starts
@@ -233,7 +233,8 @@ class Diagnosis:
     @functools.cached_property
     def final_std(self):
         """(one-sigma of the final model's nominal parameters, of its added ones): jackknife (every continuous
-        setting profiled: profile.py) and systematic, scaled by the square root of the final model's low-band power
+        setting profiled: profile.py) and systematic (the prefilter's, and a re-alignment's interpolation:
+        fit.with_systematic, profile.finer), scaled by the square root of the final model's low-band power
         ratio where it exceeds 1 (a Birge ratio: the parameters take their information from the low band, and a
         model that leaves there more than the noise's power, a form close but not exact, is that much less certain
         than its scatter over the blocks says; against the floor of the noise through the rows alone, rows_adequacy:
@@ -242,7 +243,9 @@ class Diagnosis:
         rival of a named effect (`rivals`) or a candidate the data show but that is not named (`unnamed`) makes to
         each nominal parameter: whether the effect is in the model is a choice the parameters depend on."""
         profile = self.profile
-        nominal, added = with_systematic(self.final, *(profile[:2] if profile else ()))
+        interpolated = finer(self.final, self.data)
+        nominal, added = with_systematic(self.final, *(profile[:2] if profile else ()),
+                                         others=(interpolated,) if interpolated else ())
         scale = np.sqrt(max([1.0] + [a.ratio for a in _adequacy(self.final).values() if np.isfinite(a.ratio)]))
         others = [(r, stage.assessment.fit) for stage in self.stages for r in stage.rivals]
         others += [(a, self.final) for a in self.unnamed]
