@@ -201,10 +201,10 @@ class Data:
     def _undone(self, name, tau):
         """Data with the filter of `tau` undone on sensed signal `name`: w = y + tau dy/dt, dy/dt the Savitzky-Golay
         derivative (a quartic through SMOOTH_DERIVATIVE samples, least squares; where `finer`, the polynomial through
-        them, unsmoothed). The three-point difference errs by
-        tau Ts^2 y'''/6 (R 0.03 %, 7 sigma, off on a 5 kHz record behind a 12.7 kHz position filter); the five-point
-        one is exact to the same order as this but amplifies the noise by 0.90 tau^2/Ts^2 (this: 0.26), which the
-        held-out search of tau penalises: it left tau 7 % short behind a 2 kHz filter at 10 kHz."""
+        them, unsmoothed). The three-point difference errs by tau Ts^2 y'''/6 (R 0.03 %, 7 sigma, off on a 5 kHz
+        record behind a 12.7 kHz position filter); the five-point one is exact to the same order as this but
+        amplifies the noise by 0.90 tau^2/Ts^2 (this: 0.26), which the held-out search of tau penalises: it left tau
+        7 % short behind a 2 kHz filter at 10 kHz."""
         from scipy.signal import savgol_coeffs, savgol_filter
         ratio = tau / self.sample_period
         w = np.concatenate((self.signals[name], self.spare[name]))
