@@ -8,7 +8,7 @@ from emla_core.plot_axes import si_axis, time_origin
 
 from .data import regression_rows
 from .dependence import SMOOTHING, signals_of
-from .fit import FOLDS
+from .fit import FOLDS, STUDENT
 from .residuals import CONFIDENCE
 from .workflow import MIN_BLOCKS, MIN_SCORE, MIN_SHARE, MIN_T, MOST, Diagnosis, localise
 
@@ -207,13 +207,14 @@ def _markdown(diagnosis, before):
                      f'the {100 * CONFIDENCE:.0f} % bounds (nominal model; peak cross-correlation at lag '
                      f'{loc.cross.peak_lag}).')
     lines += ['', '![correlation](correlation.png)', '', '## Parameters', '',
-              'One sigma: block jackknife, with a systematic part (the change under another prefilter) for the '
-              'final model.', '',
+              f'One sigma: block jackknife ({FOLDS} blocks, times {STUDENT:.3f}: the standard deviation of Student\'s '
+              f't with {FOLDS - 1} degrees of freedom), with a systematic part (the change under another prefilter) '
+              'for the final model.', '',
               '| parameter | nominal | final (with the named effects) |', '|---|---|---|']
     final_std = diagnosis.final_std[0]
     for name, value in diagnosis.nominal.parameters.items():
         if name != 'sample_period':
-            lines.append(f'| {name} | {_pm(value, diagnosis.nominal.std.get(name))} | '
+            lines.append(f'| {name} | {_pm(value, STUDENT * diagnosis.nominal.std.get(name, np.nan))} | '
                          f'{_pm(diagnosis.final.parameters[name], final_std.get(name))} |')
     return '\n'.join(lines) + '\n'
 

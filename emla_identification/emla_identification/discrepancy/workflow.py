@@ -68,7 +68,7 @@ from .adequacy import EQUATION, assess_adequacy, heldout_noise, noise_gains, row
 from .candidates import library
 from .data import Data, regression_rows
 from .dependence import dependence, signals_of
-from .fit import FOLDS, Fit, design, fit, greybox_start, nominal_fit, physical, self_weighted, with_systematic
+from .fit import FOLDS, STUDENT, Fit, design, fit, greybox_start, nominal_fit, physical, self_weighted, with_systematic
 from .predict import MECHANICAL_TIME, predict
 from .profile import finer, profiled, realigned
 from .residuals import binned, cross_correlation, whiteness
@@ -262,7 +262,7 @@ class Diagnosis:
         for i, (candidate, values, stds) in enumerate(final.each_added(added_std)):
             reported = candidate.reported(values, stds, final.parameters)
             if i in settings:   # a figure of the setting alone (a delay, a cutoff) takes its relative sigma
-                relative = settings[i] / getattr(candidate, candidate.scale)
+                relative = STUDENT * settings[i] / getattr(candidate, candidate.scale)
                 reported = {k: (v, s if s else abs(v) * relative) for k, (v, s) in reported.items()}
             out.update(reported)
         return out
