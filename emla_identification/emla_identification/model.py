@@ -14,8 +14,9 @@ from emla_core.model_file import Model, ModelEffect, provenance
 from .discrepancy.candidates import CANDIDATES
 from .discrepancy.data import Data
 from .discrepancy.fit import ModelOnData, fit, physical, with_systematic
+from .discrepancy.profile import profiled
 from .discrepancy.rows import nominal_names
-from .discrepancy.workflow import best_weighted
+from .discrepancy.workflow import added, assess, reported_std
 
 
 def from_greybox(result, data, command):
@@ -84,7 +85,8 @@ def identified_structure(structure, recording, data, command, source='model file
     """
     final = identify_model(structure, recording, source)
     names = [e.effect for e in structure.effects]
-    identified = from_fit(final, names, data, command)
+    raw = Data.from_recording(recording)
+    identified = from_fit(final, names, data, command, reported_std(final, raw, profiled(final, raw)))
     result = {'model': 'full', 'samples': len(recording), 'sample_period': recording.sample_period,
               'parameters': {k: v for k, (v, _) in identified.parameters.items()},
               'std': {k: s for k, (_, s) in identified.parameters.items()},
@@ -95,23 +97,15 @@ def identified_structure(structure, recording, data, command, source='model file
 
 
 def identify_model(model, recording, source='model file'):
-    """The model's structure (nominal + its effects) identified on `recording`: the joint Fit, each effect's
-    variant (a delay, a time constant) searched again on these data, each equation weighed by its own residual
-    where that leaves less disagreement (discrepancy.workflow.best_weighted)."""
+    """The model's structure (nominal + its effects) identified on `recording`: the joint Fit, each effect added in
+    turn as the discrepancy workflow names one (discrepancy.workflow.assess and added: its variant, a delay or a
+    time constant, searched again on these data, refined and polished; the settings of the effects before it
+    searched again beside it; each equation weighed by its own residual where that leaves less disagreement)."""
     data = Data.from_recording(recording)
     with np.errstate(all='ignore'):
         current = fit(data)
         for effect in model.effects:
-            candidate = _candidate(effect, source)
-
-            def heldout(variant, current=current):
-                trial = fit(variant.realigned(data), current.candidates + (variant,), current, relinearise=False)
-                error = trial.heldout.sum()
-                return error if np.isfinite(error) else np.inf
-            best = min(candidate.variants(data), key=heldout)
-            current = fit(best.realigned(data), current.candidates + (best,), current)
-        if model.effects:
-            current = best_weighted(current)
+            current = added(data, current, assess(current, _candidate(effect, source))).fit
     if not physical(current.parameters):
         raise InputError(f'{recording.source}: the model cannot be identified from these data')
     return current

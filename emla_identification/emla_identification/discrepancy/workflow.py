@@ -243,16 +243,12 @@ class Diagnosis:
         regressor do, 1.3 % on sweep case 210, 4.4 sigma unscaled); and in quadrature the largest difference a
         rival of a named effect (`rivals`) or a candidate the data show but that is not named (`unnamed`) makes to
         each nominal parameter: whether the effect is in the model is a choice the parameters depend on."""
-        profile = self.profile
-        interpolated = finer(self.final, self.data)
-        nominal, added = with_systematic(self.final, *(profile[:2] if profile else ()),
-                                         others=(interpolated,) if interpolated else ())
-        scale = np.sqrt(max([1.0] + [a.ratio for a in _adequacy(self.final).values() if np.isfinite(a.ratio)]))
+        nominal, added = reported_std(self.final, self.data, self.profile)
         others = [(r, stage.assessment.fit) for stage in self.stages for r in stage.rivals]
         others += [(a, self.final) for a in self.unnamed]
         choice = {k: max([0.0] + [abs(a.fit.parameters[k] - fit.parameters[k]) for a, fit in others])
                   for k in nominal}
-        return {k: float(np.hypot(s * scale, choice[k])) for k, s in nominal.items()}, added * scale
+        return {k: float(np.hypot(s, choice[k])) for k, s in nominal.items()}, added
 
     def added_parameters(self) -> dict[str, tuple[float, float]]:
         """{name: (value, one-sigma)} of every named effect's parameters, from the final joint fit."""
@@ -325,6 +321,18 @@ class Diagnosis:
                 f'removes {100 * a.score:.2g} % of the one-step error): the re-identified parameters\' uncertainty '
                 'includes what adding it changes' for a in self.unnamed],
         }
+
+
+def reported_std(final, raw, profile):
+    """(one-sigma of the nominal parameters of the Fit `final`, of its added ones) as reported for a model fitted to
+    the recorded data `raw`: the jackknife with every continuous setting profiled (`profile`, profile.profiled of
+    the fit, or None), its systematic part (fit.with_systematic: the prefilter's, and a re-alignment's
+    interpolation, profile.finer), all scaled by the Birge ratio of the fit's low band (Diagnosis.final_std)."""
+    interpolated = finer(final, raw)
+    nominal, added = with_systematic(final, *(profile[:2] if profile else ()),
+                                     others=(interpolated,) if interpolated else ())
+    scale = np.sqrt(max([1.0] + [a.ratio for a in _adequacy(final).values() if np.isfinite(a.ratio)]))
+    return {k: s * scale for k, s in nominal.items()}, added * scale
 
 
 def _rounded(parameters):
@@ -491,9 +499,16 @@ def _tried(data, base, adequacy, assessment):
         assessment.share = removed_share(_disagreement(adequacy), _disagreement(_adequacy(assessment.fit)))
         if not assessment.significant:
             return None
-    tried = reweighted(base, released(base, backfitted(data, base, polished(base, assessment))))
+    tried = added(data, base, assessment)
     tried.share = removed_share(_disagreement(adequacy), _disagreement(_adequacy(tried.fit)))
     return tried
+
+
+def added(raw, base, assessment):
+    """The assessment (`assess`) of a candidate added to the Fit `base`, the data `raw` as recorded, as the workflow
+    names it: its setting polished, the settings of the effects before it searched again (backfitted), their pins
+    released where it frees them, each equation weighed by its own residual where that leaves less (reweighted)."""
+    return reweighted(base, released(base, backfitted(raw, base, polished(base, assessment))))
 
 
 def _nominal(data, recording, names):
