@@ -136,14 +136,14 @@ def test_a_fraction_of_a_sample_at_a_slow_logger_is_moved_back_and_its_interpola
 
 
 def test_a_re_alignment_whose_form_the_first_stage_cannot_tell_is_chosen_by_the_final_model():
-    """Sweep case 40 (1.5 s of it): a current sensor a sample late beside a Stribeck friction at 20 kHz. Named
+    """Sweep case 40 (1 s of it): a current sensor a sample late beside a Stribeck friction at 20 kHz. Named
     first, the delay closes the electrical equation whether the current alone or current and position are late,
     and the force balance, the only equation a position a sample late changes, is at 95 times its floor from the
     friction: both were named late, a spring next, and the record was left unexplained. Named again from the
     delay's other form (workflow._other_form), a Coulomb friction follows and the model explains the record, with
     a warning that says which form was taken and why, and every nominal parameter within 3 sigma."""
     from emla_identification.discrepancy import diagnose
-    case = sweep.make_case(40, duration=1.5)
+    case = sweep.make_case(40, duration=1.0)
     recording, _ = sweep.simulate(case)
     truth, _ = sweep.expected(case, recording)
     result = diagnose(recording).to_dict()
