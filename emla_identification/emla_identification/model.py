@@ -13,7 +13,7 @@ from emla_core.model_file import Model, ModelEffect, provenance
 
 from .discrepancy.candidates import CANDIDATES
 from .discrepancy.data import Data
-from .discrepancy.fit import ModelOnData, fit, physical, with_systematic
+from .discrepancy.fit import ModelOnData, fit, physical
 from .discrepancy.profile import profiled
 from .discrepancy.rows import nominal_names
 from .discrepancy.workflow import added, assess, reported_std
@@ -25,7 +25,7 @@ def from_greybox(result, data, command):
                  provenance(data, command))
 
 
-def from_fit(final, names, data, command, std=None):
+def from_fit(final, names, data, command, std):
     """The Model of a joint fit (the discrepancy's final one): nominal parameters and each candidate's own
     parameters with their uncertainties (jackknife and systematic), named `names` (one per candidate).
 
@@ -39,15 +39,14 @@ def from_fit(final, names, data, command, std=None):
         The data the fit came from (the model's provenance).
     command : str
         The command line that made it (provenance).
-    std : tuple, optional
-        (nominal, added) one-sigma of the fit as `with_systematic(final)` gives them, when already at hand
-        (Diagnosis.final_std); computed here otherwise.
+    std : tuple
+        (nominal, added) one-sigma of the fit: discrepancy.workflow.reported_std's (Diagnosis.final_std).
 
     Returns
     -------
     emla_core.model_file.Model
     """
-    std, added_std = std if std is not None else with_systematic(final)
+    std, added_std = std
     nominal = {k: (v, std.get(k)) for k, v in final.parameters.items() if k != 'sample_period'}
     effects = [ModelEffect(name, candidate.name,
                            {p: (float(v), float(s)) for p, v, s in zip(candidate.parameters, values, stds)},
@@ -83,9 +82,9 @@ def identified_structure(structure, recording, data, command, source='model file
         (result dict for the JSON: model, samples, sample_period, parameters, std, effects; the identified
         emla_core.model_file.Model).
     """
-    final = identify_model(structure, recording, source)
-    names = [e.effect for e in structure.effects]
     raw = Data.from_recording(recording)
+    final = identify_model(structure, raw, recording.source, source)
+    names = [e.effect for e in structure.effects]
     identified = from_fit(final, names, data, command, reported_std(final, raw, profiled(final, raw)))
     result = {'model': 'full', 'samples': len(recording), 'sample_period': recording.sample_period,
               'parameters': {k: v for k, (v, _) in identified.parameters.items()},
@@ -96,18 +95,18 @@ def identified_structure(structure, recording, data, command, source='model file
     return result, identified
 
 
-def identify_model(model, recording, source='model file'):
-    """The model's structure (nominal + its effects) identified on `recording`: the joint Fit, each effect added in
-    turn as the discrepancy workflow names one (discrepancy.workflow.assess and added: its variant, a delay or a
-    time constant, searched again on these data, refined and polished; the settings of the effects before it
-    searched again beside it; each equation weighed by its own residual where that leaves less disagreement)."""
-    data = Data.from_recording(recording)
+def identify_model(model, data, record, source='model file'):
+    """The model's structure (nominal + its effects) identified on a record's `data` (a Data; `record` names it in
+    errors): the joint Fit, each effect added in turn as the discrepancy workflow names one
+    (discrepancy.workflow.assess and added: its variant, a delay or a time constant, searched again on these
+    data, refined and polished; the settings of the effects before it searched again beside it; each equation
+    weighed by its own residual where that leaves less disagreement)."""
     with np.errstate(all='ignore'):
         current = fit(data)
         for effect in model.effects:
             current = added(data, current, assess(current, _candidate(effect, source))).fit
     if not physical(current.parameters):
-        raise InputError(f'{recording.source}: the model cannot be identified from these data')
+        raise InputError(f'{record}: the model cannot be identified from these data')
     return current
 
 
