@@ -153,7 +153,7 @@ class Assessment:
                    if self.significant and not self.named and np.isfinite(self.share) else '')
         return (f'{params or "no parameters"}{f" ({settings})" if settings else ""}; removes {equations} of the '
                 f'held-out one-step error; better in {self.blocks_improved}/{FOLDS} held-out blocks'
-                f'{"" if self.plausible else "; parameter of the wrong sign"}{partial}')
+                f'{"" if self.plausible else "; a parameter of the wrong sign"}{partial}')
 
     def to_dict(self):
         return {'effect': self.name, 'score': round(self.score, 6), 'significant': bool(self.significant),
@@ -778,7 +778,10 @@ def _chosen_again(raw, base, model, candidates, i):
 
 
 def _judged(base, result):
-    """The Assessment of `result`, the fit of `base` with one more candidate (its last)."""
+    """The Assessment of `result`, the fit of `base` with one more candidate (its last). It is plausible when no
+    candidate of the fit, the effects named before it included, has a parameter it resolves at a sign physics
+    forbids: on the bench's default record (emla_sim, a 1 N Coulomb friction at 10 kHz) a smooth friction of 1.89 N
+    beside it made the Coulomb level -0.90 +- 0.19 N and its contact damping negative, and was named."""
     best = result.candidates[-1]
     heldout = np.maximum(np.nan_to_num(result.heldout, nan=np.inf) - _excess_noise(base, result), 0.0)
     gain = base.heldout - heldout   # per block and equation; each equation's share removed, bounded:
@@ -789,7 +792,7 @@ def _judged(base, result):
     resolved = not len(values) or bool(np.any((np.abs(values) >= MIN_T * stds)[best.free() > 0]))
     return Assessment(best.effect_name(values), result, float(sum(per_equation)),
                       dict(zip(kinds, map(float, per_equation))), int(np.sum(gain.sum(axis=1) > 0)),
-                      parameters, best.settings(), resolved, not _forbidden(best, values, stds))
+                      parameters, best.settings(), resolved, not _crosses_a_sign(result))
 
 
 def _crosses_a_sign(result):
