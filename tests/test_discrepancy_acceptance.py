@@ -3,12 +3,15 @@ the held-out one-step error is named, the share of the disagreement it removes s
 and no output holds NaN or an impossible percentage. Data: the independent RK4 plant (tests/independent_plant.py)
 with the issue's pairs of hidden effects; a parameter the data resolve at a sign physics forbids is held at its
 bound."""
+import dataclasses
 import json
 import re
 
 import pytest
 from independent_plant import make_effect, record
 
+from emla_bench import scenarios
+from emla_core.physics import CoulombFriction
 from emla_core.physics.candidate import CANDIDATES
 from emla_identification.discrepancy.data import Data
 from emla_identification.discrepancy.fit import fit
@@ -77,3 +80,18 @@ def test_a_parameter_resolved_at_a_forbidden_sign_is_held_at_its_bound_and_the_r
     assert str(values[0]) == '0.0' and stds[0] == 0.0 and values[1] != 0.0 and stds[1] > 0.0
     offset, std = assessment.parameters['equivalent_current_offset']
     assert abs(offset + 0.2) < 3.0 * std < 1e-3
+
+
+def test_an_effect_that_puts_one_named_before_it_at_a_forbidden_sign_is_not_named():
+    """The bench's default record (emla_sim's plant, a 1 N Coulomb friction, 10 kHz closed loop; `make bench` times
+    it on 3 s): a 1.92 N smooth friction beside the Coulomb one made the Coulomb level -0.92 N and its contact
+    damping negative, and was named beside it (an assessment judged only its own candidate's signs)."""
+    scenario = dataclasses.replace(scenarios.get('default'), effects=(CoulombFriction(coulomb_force=1.0),),
+                                   cases={'adaptive': (True, True)})
+    diagnosis = diagnose(scenario.run_case('adaptive', duration=1.5).recording)
+    result = diagnosis.to_dict()
+    (effect,) = result['effects']
+    assert effect['effect'] == 'coulomb_friction' and result['verdict'] == 'explained'
+    force, std = effect['parameters']['coulomb_force'], effect['std']['coulomb_force']
+    assert abs(force - 1.0) <= 3.0 * std and std < 0.5
+    assert_sensible(diagnosis)
