@@ -11,7 +11,8 @@ array, or None when the candidate has no term of that kind. Terms that need a si
 state, a friction direction) compute it from the measured data once per variant and read it at s.index.
 A candidate may instead (or as well) re-align the data (`realigned`), as a sensor delay does. A voltage term so
 steep in the current that it bends the current's path through an interval (a dead-time drop) also gives it at
-the values it was last fitted with (`path_voltage`, `fitted`).
+the values it was last fitted with (`path_voltage`, `fitted`); so does an inductance term (`path_inductance`:
+an iron saturating to half its inductance doubles the current's rate within an interval).
 `variants(data)` lists the configurations to search (e.g. thermal time constants, delays); the best one
 represents the candidate.
 
@@ -77,7 +78,7 @@ class Candidate:
     # parameters held at zero, the bound their sign allows, because the data asked for the other sign (the
     # workflow's constrained refit); kw_only, so that subclasses' fields may go without defaults
     pinned: tuple = dataclasses.field(default=(), kw_only=True, repr=False, compare=False)
-    # its parameters' values in the fit this variant was last refitted in (path_voltage)
+    # its parameters' values in the fit this variant was last refitted in (path_voltage, path_inductance)
     fitted: tuple = dataclasses.field(default=(), kw_only=True, repr=False, compare=False)
 
     def free(self):
@@ -106,6 +107,12 @@ class Candidate:
         the currents `current`, where they are steep enough in the current to bend its path through an interval
         (a dead-time drop); None where they are not (the default)."""
         return None
+
+    def path_inductance(self, s):
+        """The inductance (H) its terms, at its `fitted` values, add to the coil's at the state s (a model's path
+        through the intervals: current, position, velocity), or None: it has no inductance term or no fitted values."""
+        terms = self.inductance(s) if self.fitted else None
+        return None if terms is None else np.tensordot(np.asarray(self.fitted) * self.free(), terms, 1)
 
     def force(self, s):
         return None

@@ -166,7 +166,7 @@ def fit(data, candidates=(), reference=None, *, relinearise=True, about=None):
             return reference
     about = reference.linearised_about if about is None else about
     result = solve(data, candidates, about, reference.sigma)
-    if 'resistance' in about and bending(_fitted(result), data, about['resistance']):
+    if 'resistance' in about and bending(_fitted(result), data, about):
         result = solve(data, _fitted(result), about, reference.sigma)   # the current's path bent by the fitted terms
     return _refined(data, result) if relinearise else result
 
@@ -211,15 +211,17 @@ def self_weighted(result):
 
 
 def _fitted(fit):
-    """The Fit's candidates, those whose terms bend the current's path (Candidate.path_voltage) holding their values
-    in it: the refit about it takes the path the fitted terms give."""
+    """The Fit's candidates, those whose terms bend the current's path (Candidate.path_voltage, path_inductance)
+    holding their values in it: the refit about it takes the path the fitted terms give."""
     return tuple(replace(c, fitted=tuple(map(float, fit.added[part]))) if _bends(c) else c
                  for c, part in fit.added_slices())
 
 
 def _bends(candidate):
-    """Do the candidate's terms bend the current's path (Candidate.path_voltage)?"""
-    return type(candidate).path_voltage is not Candidate.path_voltage
+    """Can the candidate's terms bend the current's path (a voltage steep in the current: Candidate.path_voltage;
+    an inductance: path_inductance)?"""
+    kind = type(candidate)
+    return kind.path_voltage is not Candidate.path_voltage or kind.inductance is not Candidate.inductance
 
 
 def chi_square(fit, scale):
