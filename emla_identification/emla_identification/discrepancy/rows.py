@@ -20,7 +20,7 @@ gain, a force f (opposing +x) as f times the load's gain, an extra inductance l 
   weighted by the row's gain of an input over that part
   (physical.piece_gains): the row does not weigh an interval's parts equally (a voltage acts on I_k the more the
   later it comes, through L/R).
-- Mechanical rows (the intervals [t_k-1, t_k+1]): the terms at the middle of each of MECHANICAL_PIECES parts of
+- Mechanical rows (the intervals [t_k-1, t_k+1]): the terms at the middle of each of PIECES / 2 parts of
   both intervals (the spline's position and velocity, the current as above, a measured force linear), each
   weighted by the row's gain of that part: for a free mass the triangle, otherwise the row's own kernel. A spring's
   k x or a force constant's Km(x) I under a loop hunting at a 2 kHz logger is far from linear between samples.
@@ -42,7 +42,8 @@ from emla_identification.regressors import instruments, rows
 from .data import PARTS, State, regression_rows
 
 PIECES = 8   # parts of an electrical row's interval its terms are taken on, each at its middle (_electrical)
-MECHANICAL_PIECES = 4   # and of each of a mechanical row's two intervals (_samples)
+PARTS_PER_TAU = 8   # or as many per fastest time constant of the coil, where an inductance bends (Rows.parts)
+MAX_PIECES = 64     # (a mechanical row's intervals: half as many each)
 INSTRUMENT_LAG = 2   # rows: an electrical row's error holds the noise of samples k-1 and k; these hold k-3, k-2
 MIN_INDUCTANCE = 0.1   # of the model's: the least a current's path takes (Rows._bent)
 BEND = 0.05   # a candidate's voltage bends the current's path where its slope dV/dI reaches this share of R (bending)
@@ -60,7 +61,7 @@ def bending(candidates, data, model):
         voltage = c.path_voltage(current)
         if voltage is not None and np.max(voltage[1]) > BEND * model['resistance']:
             out.append(c)
-        elif c.fitted and type(c).inductance is not Candidate.inductance:
+        elif _inductive(c):
             state = data.state() if state is None else state
             inductance = c.path_inductance(state)
             if inductance is not None and np.max(np.abs(inductance)) > BEND * model['inductance']:
@@ -99,12 +100,23 @@ def _substep(q0, sample_period, pieces):
 
 
 @functools.lru_cache(maxsize=64)
+def _reach(q0, sample_period):
+    """d x_k+1 / d v_k of the model q0 (a tuple): how far a start velocity carries the position over an interval."""
+    return float(transition(np.array(q0), sample_period)[0][1, 2])
+
+
+@functools.lru_cache(maxsize=64)
 def _within(q0, sample_period, pieces):
     """The current's rows of (P, G, H) of the model q0 (a tuple) from an interval's start to each of 2 `pieces` + 1
     equally spaced times, its start to its end (times x 3, times, times)."""
     times = sample_period * np.linspace(0.0, 1.0, 2 * pieces + 1)
     p, g, h = transition(np.array(q0), times[:, None, None])   # one matrix exponential per time
     return p[:, 0], g[:, 0], h[:, 0]
+
+
+def _inductive(candidate):
+    """Does the candidate, at its fitted values, give the current's path an inductance (path_inductance)?"""
+    return bool(candidate.fitted) and type(candidate).inductance is not Candidate.inductance
 
 
 def _advanced(held, g, voltage, stiff, rise):
@@ -179,13 +191,29 @@ class Rows:
         """(n, sum of the candidates' parameters) columns at regression rows `rows`; `current`: the electrical
         rows' start currents to use instead of the measured ones (a prediction)."""
         blocks = [np.zeros((len(self.y[rows]), 0))]
+        parts = self.parts(candidates)
         for candidate, (voltage, load) in zip(candidates, self._terms(candidates, rows, current)):
             between = candidate.force_between(self.data)
-            block = (np.tensordot(self._weights('load_gains'), load, 1) if between is None
+            block = (np.tensordot(self._weights('load_gains', parts), load, 1) if between is None
                      else self._between(between, rows, self._pieces(between.shape[1])[1])) \
-                - np.tensordot(self._weights('voltage_gains'), voltage, 1)
+                - np.tensordot(self._weights('voltage_gains', parts), voltage, 1)
             blocks.append(block * candidate.free())
         return np.hstack(blocks)
+
+    def parts(self, candidates):
+        """The parts of an electrical row's interval the candidates' terms are taken on (a mechanical row's
+        intervals: half as many each): PIECES, or where an inductance bends the current's path (_bent), enough that
+        each part is at most 1/PARTS_PER_TAU of the coil's fastest time constant (its least L + l over R), up to
+        MAX_PIECES. At 2 kHz an iron saturating to a third of L (Table 1: L/R 1.3 sample periods at its least)
+        kept Km 0.76 % and B 10 % off on 8 parts (noise-free), 0.08 and 1.0 % on 32."""
+        model = dict(zip(self.names, self.q0))
+        inductive = 'resistance' in model and [c for c in bending(candidates, self.data, model) if _inductive(c)]
+        if not inductive:
+            return PIECES
+        least = model['inductance'] + np.min(sum(c.path_inductance(self.data.state()) for c in inductive))
+        fastest = max(least, MIN_INDUCTANCE * model['inductance']) / model['resistance']
+        need = int(np.ceil(PARTS_PER_TAU * self.data.sample_period / fastest))
+        return int(min(MAX_PIECES, 2 * ((max(need, PIECES) + 1) // 2)))   # even: a mechanical row takes half
 
     def _pieces(self, pieces):
         """(voltage, load piece gains, their d/dq) of `pieces` parts per interval (physical.piece_gains) at the
@@ -205,7 +233,7 @@ class Rows:
         """(n, nominal parameters): d/dq of the candidates' terms with parameters `added` (their columns depend on
         the model through the input gains): the cross terms of the Gauss-Newton step about (q0, added)."""
         out = np.zeros((len(self.y), len(self.names)))
-        start = 0
+        start, parts = 0, self.parts(candidates)
         for candidate, (voltage, load) in zip(candidates, self._terms(candidates, slice(None), None)):
             p = added[start:start + voltage.shape[-1]]
             start += len(p)
@@ -215,8 +243,8 @@ class Rows:
                                                             self._pieces(between.shape[1])[3]), p)
                 load = np.zeros_like(load)
             for j in range(len(voltage)):
-                out += np.outer(load[j] @ p, self._weights('load_slopes')[j]) \
-                    - np.outer(voltage[j] @ p, self._weights('voltage_slopes')[j])
+                out += np.outer(load[j] @ p, self._weights('load_slopes', parts)[j]) \
+                    - np.outer(voltage[j] @ p, self._weights('voltage_slopes', parts)[j])
         return out
 
     def _terms(self, candidates, rows, current):
@@ -228,8 +256,9 @@ class Rows:
         if whole and self._kept_terms is not None and len(self._kept) == len(candidates) \
                 and all(a is b for a, b in zip(self._kept, candidates)):
             return self._kept_terms
-        pieces, paths = self._electrical(rows, current, candidates) if self.kind == 'electrical' \
-            else self._samples(rows, candidates)
+        parts = self.parts(candidates)
+        pieces, paths = self._electrical(rows, current, candidates, parts) if self.kind == 'electrical' \
+            else self._samples(rows, candidates, parts // 2)
         out = []
         for c in candidates:
             shape = (len(pieces), len(pieces[0].index), len(c.parameters))
@@ -266,7 +295,11 @@ class Rows:
         bends = bending(candidates, self.data, dict(zip(self.names, self.q0)))
         anchor = np.linspace(0.0, 1.0, 2 * pieces + 1)[:, None]   # the share of the miss at the end moved in
         if bends:
-            model, slope = self._bent(s, j, signals['voltage'][j], bends, pieces)
+            inductive = [c for c in bends if _inductive(c)]
+            model, slope, last = self._bent(s, j, signals['voltage'][j], bends, inductive, pieces)
+            if inductive:   # the start velocity that meets the measured end position on this path (_bent)
+                s[2] += (signals['position'][j + 1] - last[1]) / _reach(tuple(self.q0[:6]), ts)
+                model, slope, _ = self._bent(s, j, signals['voltage'][j], bends, inductive, pieces)
             anchor = anchor * (self.q0[0] / (self.q0[0] + slope))
         else:
             p, g, h = _within(tuple(self.q0[:6]), ts, pieces)
@@ -274,19 +307,23 @@ class Rows:
         path = model + anchor * (end - model[-1])
         return list(path[1::2]), list((path[2::2] - path[:-1:2]) * (pieces / ts))
 
-    def _bent(self, s, j, voltage, bends, pieces):
-        """(the model's currents, the slopes dV/dI of the candidates' `bends` voltages there) at 2 `pieces` + 1
-        equal steps through the intervals [t_j, t_j+1] from the states s (3 x n) under the held `voltage` less those
-        voltages at the current (Candidate.path_voltage) and the voltage l dI/dt their inductance l takes
-        (path_inductance). A dead-time drop V_d reversing over I_eps acts about zero current as a resistance V_d /
-        I_eps, up to 30 times R (time constants of 20 us): the current settles within the band early in an interval,
-        and a path without the drop puts it there late (L 1 % off at 10 kHz). An iron saturated to half its
-        inductance doubles the current's rate and its bend by L/R: a path at the model's L put its l dI/dt where it
-        is not (R, Km 4-5 sigma off at 20 kHz, 0.02-0.08 %; 0.0000 and 0.003 % on the path with l, noise-free).
-        Each step takes the drop implicitly in its slope and l dI/dt in its rise, so stable at any stiffness, l as
-        the mean of its values at the step's ends (predicted, then corrected: with l at the start alone, a noise-free
-        2 kHz record of an iron saturating to a third of L kept 1.8 times the current's misfit).
-        The inductance a path takes is at least MIN_INDUCTANCE times the model's: a fitted l may overshoot."""
+    def _bent(self, s, j, voltage, bends, inductive, pieces):
+        """(the model's currents, the slopes dV/dI of the candidates' `bends` voltages there) at 2 `pieces` + 1 equal
+        steps through the intervals [t_j, t_j+1] from the states s (3 x n) under the held `voltage` less those voltages
+        at the current (Candidate.path_voltage) and the voltage l dI/dt the inductance l of those `inductive` takes
+        (path_inductance); and the states the path ends in. A dead-time drop V_d reversing over I_eps acts about zero
+        current as a resistance V_d / I_eps, up to 30 times R (time constants of 20 us): the current settles within the
+        band early in an interval, and a path without the drop puts it there late (L 1 % off at 10 kHz). An iron
+        saturated to half its inductance doubles the current's rate and its bend by L/R: a path at the model's L put its
+        l dI/dt where it is not (R, Km 4-5 sigma off at 20 kHz, 0.02-0.08 %; 0.0000 and 0.003 % on the path with l,
+        noise-free). Each step takes the drop implicitly in its slope and l dI/dt in its rise, so stable at any
+        stiffness, l as the mean of its values at the step's ends (predicted, then corrected: with l at the start alone,
+        a noise-free 2 kHz record of an iron saturating to a third of L kept 1.8 times the current's misfit). The
+        inductance a path takes is at least MIN_INDUCTANCE times the model's: a fitted l may overshoot. Where an
+        inductance bends it, the path starts at the velocity that takes it to the measured position at the interval's
+        end (_path): at 2 kHz the five-point velocity is 15 mm/s (rms) off the motion's on a clean noise-free record,
+        which puts the path 28 mA off the measured current at the end, and the move to it (linear in time) lands in l
+        dI/dt where l is large."""
         step, floor = self.data.sample_period / (2 * pieces), -(1.0 - MIN_INDUCTANCE) * self.q0[1]
 
         def drop(current):
@@ -295,8 +332,7 @@ class Rows:
 
         def inductance(s):
             state = State(self.data, j, position=s[1], velocity=s[2], current=s[0])
-            return np.maximum(sum(i for i in (c.path_inductance(state) for c in bends) if i is not None), floor)
-        inductive = any(c.fitted and type(c).inductance is not Candidate.inductance for c in bends)
+            return np.maximum(sum(c.path_inductance(state) for c in inductive), floor)
         p, g, h = _substep(tuple(self.q0[:6]), self.data.sample_period, pieces)
         value, slope = drop(s[0])
         extra = inductance(s) if inductive else 0.0
@@ -313,52 +349,53 @@ class Rows:
             value, slope = drop(s[0])
             out.append(s[0])
             slopes.append(slope * np.ones_like(s[0]))
-        return np.array(out), np.array(slopes)
+        return np.array(out), np.array(slopes), s
 
     def _step(self, rows, start):
         """The model's I_k from I_k-1 = `start` (and the rows' other regressors)."""
         step = start * self.coefficients[0] + self.phi[rows, 1:] @ self.coefficients[1:]
         return step if self.shaped is None else step + self.shaped[rows] @ self._shape_gains()[0]
 
-    def _weights(self, name):
+    def _weights(self, name, parts):
         """Each piece's weight of the gains `name` (voltage_gains, load_gains, or their d/dq: voltage_slopes,
         load_slopes, along a last axis): the electrical row's gain of each of the PIECES parts of its interval
         (physical.piece_gains: the row weighs the parts unequally, the back-EMF through L/R the interval's end);
-        the mechanical rows' of each of the MECHANICAL_PIECES parts of both intervals, in turn (module doc)."""
+        the mechanical rows' of each of the half as many parts of both intervals, in turn (module doc); `parts`:
+        an electrical row's (Rows.parts)."""
         electrical = self.kind == 'electrical'
-        voltage, load, voltage_slopes, load_slopes = self._pieces(PIECES if electrical else MECHANICAL_PIECES)
+        voltage, load, voltage_slopes, load_slopes = self._pieces(parts if electrical else parts // 2)
         gains = {'voltage_gains': voltage, 'load_gains': load, 'voltage_slopes': voltage_slopes,
                  'load_slopes': load_slopes}[name]
         return gains[0] if electrical else gains.reshape((-1,) + gains.shape[2:])   # both intervals' parts in turn
 
-    def _electrical(self, rows, current, candidates):
-        """([the states along the interval [t_k-1, t_k] at the middle of each of its PIECES parts], _path's currents
+    def _electrical(self, rows, current, candidates, parts):
+        """([the states along the interval [t_k-1, t_k] at the middle of each of its `parts` parts], _path's currents
         and rates there, from the interval's start to its end: the measured currents, or in a prediction the model's
-        step): the position and velocity of the cubic spline through the measured positions, the current linear in
-        time (the terms take _path's instead: _terms)."""
+        step): the position and velocity of the cubic spline through the measured positions, the current linear in time
+        (the terms take _path's instead: _terms)."""
         k = self.index[rows]
-        between = self.data.between(PIECES)
+        between = self.data.between(parts)
         start = self.phi[rows, 0] if current is None else current
         end = self.y[rows] if current is None else self._step(rows, start)
         position, velocity = between['position'][k - 1], between['velocity'][k - 1]   # one gather, then views
         return [State(self.data, k - 1, position=position[:, m], velocity=velocity[:, m],
-                      current=start + (m + 0.5) / PIECES * (end - start), voltage=self.phi[rows, 1])
-                for m in range(PIECES)], self._path(k - 1, start, end, PIECES, candidates)
+                      current=start + (m + 0.5) / parts * (end - start), voltage=self.phi[rows, 1])
+                for m in range(parts)], self._path(k - 1, start, end, parts, candidates)
 
-    def _samples(self, rows, candidates):
-        """([the states at the middle of each of the MECHANICAL_PIECES parts of the intervals [t_k-1, t_k] and
-        [t_k, t_k+1], in turn], _path's currents and rates there or None for the force regression): the cubic
-        spline's position and velocity, the current (or force) linear between its samples, the voltage held. A
-        force along the row is so taken where it acts, through the row's gain of each part: a spring's k x is not
-        linear between the samples of a loop hunting at a 2 kHz logger."""
+    def _samples(self, rows, candidates, parts):
+        """([the states at the middle of each of the `parts` parts of the intervals [t_k-1, t_k] and [t_k, t_k+1], in
+        turn], _path's currents and rates there or None for the force regression): the cubic spline's position and
+        velocity, the current (or force) linear between its samples, the voltage held. A force along the row is so taken
+        where it acts, through the row's gain of each part: a spring's k x is not linear between the samples of a loop
+        hunting at a 2 kHz logger."""
         k = self.index[rows]
-        between = self.data.between(MECHANICAL_PIECES)
+        between = self.data.between(parts)
         states, currents, rates = [], [], []
         path = self.kind == 'mechanical'   # the force regression has no coil
         if path:   # on each interval once: a row's second is the next row's first
             spans = np.union1d(k - 1, k)
             current = self.data.signals['current']
-            along = self._path(spans, current[spans], current[spans + 1], MECHANICAL_PIECES, candidates)
+            along = self._path(spans, current[spans], current[spans + 1], parts, candidates)
         for j in (k - 1, k):
             position, velocity = between['position'][j], between['velocity'][j]   # one gather, then views
             ends = {name: (values[j], values[j + 1])
@@ -367,8 +404,8 @@ class Rows:
                 at = np.searchsorted(spans, j)
                 currents += [c[at] for c in along[0]]
                 rates += [r[at] for r in along[1]]
-            for m in range(MECHANICAL_PIECES):
-                share = (m + 0.5) / MECHANICAL_PIECES
+            for m in range(parts):
+                share = (m + 0.5) / parts
                 others = {name: first if name == 'voltage' else (1.0 - share) * first + share * last
                           for name, (first, last) in ends.items()}
                 states.append(State(self.data, j, position=position[:, m], velocity=velocity[:, m], **others))
