@@ -175,17 +175,28 @@ def fit(data, candidates=(), reference=None, *, relinearise=True, about=None):
     result = solve(data, candidates, about, reference.sigma)
     if not relinearise:   # one pass (a variant search): an inductance term's bend needs its refits
         return _bent(data, result, about, False)
-    chains = [_refined(data, _bent(data, result, about, inductive), inductive)
-              for inductive in ((True, False) if any(map(_inductive, candidates)) else (True,))]
-    return min(chains, key=lambda chain: (not physical(chain.parameters), chi_square(chain, reference.sigma)))
+    taken = []
+    bent = _refined(data, _bent(data, result, about, True, taken), True, taken)
+    if not any(taken):   # no inductance term bent a path: the fit without the bend is this one
+        return bent
+    straight = _refined(data, _bent(data, result, about, False), False)
+    return min((bent, straight), key=lambda chain: (not physical(chain.parameters), chi_square(chain, reference.sigma)))
 
 
-def _bent(data, result, about, inductive):
-    """`result` solved again with the current's path bent by its fitted terms (_fitted) where they bend it."""
+def _bent(data, result, about, inductive, taken=None):
+    """`result` solved again with the current's path bent by its fitted terms (_fitted) where they bend it; `taken`:
+    a list that receives whether an inductance term bends it (_inductively)."""
     fitted = _fitted(result, inductive)
+    if taken is not None:
+        taken.append(_inductively(fitted, data, about))
     if 'resistance' in about and bending(fitted, data, about):
         return solve(data, fitted, about, result.sigma)
     return result
+
+
+def _inductively(candidates, data, model):
+    """Does an inductance term of `candidates` bend the current's path in the rows about `model` (rows.bending)?"""
+    return 'resistance' in model and any(_inductive(c) for c in bending(candidates, data, model))
 
 
 def nominal_fit(data, start=None):
@@ -196,17 +207,20 @@ def nominal_fit(data, start=None):
     return solve(data, (), start, solve(data, (), start, weights).rms)
 
 
-def _refined(data, result, inductive=True):
+def _refined(data, result, inductive=True, taken=None):
     """`result` refitted about itself (Gauss-Newton) while a refit still improves the fit by more than ENOUGH
     (chi-square units of the refit's own residuals: a step worth less than about a sigma is not taken further) and
     stays a possible actuator, at most RELINEARISATIONS times. A model that misses an effect may have no finite
     optimum (a missing spring lets the mass grow without bound at ever smaller gains): the refits stop where the
-    evidence for moving does. `inductive`: the path bent by the candidates' inductance terms too (_fitted)."""
+    evidence for moving does. `inductive`: the path bent by the candidates' inductance terms too (_fitted); `taken`:
+    a list that receives, for each refit, whether one bends it."""
     for _ in range(RELINEARISATIONS):
         if not physical(result.parameters):
             break
-        refit = solve(data, _fitted(result, inductive), result.parameters, result.sigma, added=result.added,
-                      weights=result.weights)
+        fitted = _fitted(result, inductive)
+        if taken is not None:
+            taken.append(_inductively(fitted, data, result.parameters))
+        refit = solve(data, fitted, result.parameters, result.sigma, added=result.added, weights=result.weights)
         if not physical(refit.parameters):
             break
         gain, result = chi_square(result, refit.rms) - chi_square(refit, refit.rms), refit
