@@ -30,7 +30,7 @@ from emla_core.physics import Candidate
 from emla_core.recording import Recording
 
 from .data import regression_rows
-from .rows import Rows, bending, nominal_names
+from .rows import Rows, bending, has_inductance, nominal_names
 
 FOLDS = 10
 # A delete-one-block jackknife's sigma has FOLDS - 1 degrees of freedom: an estimate's error in its units follows
@@ -161,9 +161,9 @@ def fit(data, candidates=(), reference=None, *, relinearise=True, about=None):
 
     The refits hold the current's path bent by the fitted terms (_fitted). An inductance term's bend is a fixed
     point the refits iterate to, not a Gauss-Newton step: at the form and setting the data have, it converges and
-    closes the misfit (docs/physics.md 6.3), but a saturation current drawn far from the data's (3.6 A for 10 A,
-    the sweep's case 66) sent it away, the term unresolved and L 19 % off. So where a candidate has an inductance
-    term the refits are made both with its bend and without, and the one that fits better (a possible actuator
+    closes the misfit (docs/physics.md 6.3), but from a saturation current drawn far from the data's (2.8 A for
+    10 A, the sweep's case 66) it ran off, the term unresolved and L 19 % off. So where an inductance term bent the
+    path in those refits, the model is refined without the bend as well and the better fit (a possible actuator
     first) is kept; a single pass (not `relinearise`: the variant searches) takes no inductance term's bend.
     """
     candidates = tuple(candidates)
@@ -196,7 +196,7 @@ def _bent(data, result, about, inductive, taken=None):
 
 def _inductively(candidates, data, model):
     """Does an inductance term of `candidates` bend the current's path in the rows about `model` (rows.bending)?"""
-    return 'resistance' in model and any(_inductive(c) for c in bending(candidates, data, model))
+    return 'resistance' in model and any(has_inductance(c) for c in bending(candidates, data, model))
 
 
 def nominal_fit(data, start=None):
@@ -237,7 +237,7 @@ def self_weighted(result):
     floor; weighed by its own, 1.02 times, k within 0.03 %). Weighed by its own, though, an equation that keeps a
     misfit can drag what the other fixes (workflow.best_weighted chooses)."""
     data = result.data
-    inductive = any(c.fitted for c in result.candidates if _inductive(c))
+    inductive = any(c.fitted for c in result.candidates if has_inductance(c))
     return _refined(data, solve(data, _fitted(result, inductive), result.parameters, result.sigma, added=result.added,
                                 weights=result.rms), inductive)
 
@@ -247,17 +247,13 @@ def _fitted(fit, inductive=True):
     Candidate.path_voltage; with `inductive`, an inductance: path_inductance) holding their values in it: the refit
     about it takes the path the fitted terms give."""
     return tuple(replace(c, fitted=tuple(map(float, fit.added[part])))
-                 if _steep(c) or (inductive and _inductive(c)) else c for c, part in fit.added_slices())
+                 if _steep(c) or (inductive and has_inductance(c)) else c for c, part in fit.added_slices())
 
 
 def _steep(candidate):
     """Does the candidate have a voltage that may be steep in the current (Candidate.path_voltage)?"""
     return type(candidate).path_voltage is not Candidate.path_voltage
 
-
-def _inductive(candidate):
-    """Does the candidate have an inductance term (it bends the path: Candidate.path_inductance)?"""
-    return type(candidate).inductance is not Candidate.inductance
 
 
 def chi_square(fit, scale):

@@ -114,9 +114,14 @@ def _within(q0, sample_period, pieces):
     return p[:, 0], g[:, 0], h[:, 0]
 
 
+def has_inductance(candidate):
+    """Does the candidate have an inductance term (it can bend the current's path: Candidate.path_inductance)?"""
+    return type(candidate).inductance is not Candidate.inductance
+
+
 def _inductive(candidate):
     """Does the candidate, at its fitted values, give the current's path an inductance (path_inductance)?"""
-    return bool(candidate.fitted) and type(candidate).inductance is not Candidate.inductance
+    return bool(candidate.fitted) and has_inductance(candidate)
 
 
 def _advanced(held, g, voltage, stiff, rise):
