@@ -141,14 +141,19 @@ def test_force_replaces_a_previous_report_and_nothing_else(work, capsys):
     (work / 'notes' / 'keep.txt').write_text('mine')
     before = snapshot(work)
     refused(['discrepancy', 'logger.csv', '--report', 'notes', '--force'], capsys,
-            '--report notes: --force replaces only a previous output, and this directory holds no report.md')
+            '--report notes: --force replaces only an output emla wrote (.emla-output in it)')
     assert snapshot(work) == before
     assert cli.main(['discrepancy', 'logger.csv', '--report', 'report', '--json', 'd.json']) == 0
-    (work / 'report' / 'stale.png').write_text('from an earlier run')
+    (work / 'report' / 'mine.txt').write_text('a note of the user')
     refused(['discrepancy', 'logger.csv', '--report', 'report'], capsys, '--report report: exists')
+    before = snapshot(work)
+    refused(['discrepancy', 'logger.csv', '--report', 'report', '--force'], capsys,
+            '--report report: holds files emla did not write (mine.txt)')
+    assert snapshot(work) == before
+    (work / 'report' / 'mine.txt').unlink()
     assert cli.main(['discrepancy', 'logger.csv', '--report', 'report', '--json', 'd.json', '--force']) == 0
     report = sorted(p.name for p in (work / 'report').iterdir())
-    assert report == ['correlation.png', 'diagnosis.json', 'disagreement.png', 'gap.png', 'report.md',
+    assert report == ['.emla-output', 'correlation.png', 'diagnosis.json', 'disagreement.png', 'gap.png', 'report.md',
                       'residuals.png']
     assert json.loads((work / 'report' / 'diagnosis.json').read_text()) == json.loads((work / 'd.json').read_text())
     assert not list(work.glob('.*'))
@@ -157,7 +162,8 @@ def test_force_replaces_a_previous_report_and_nothing_else(work, capsys):
 def test_an_existing_bag_needs_force_and_is_the_only_directory_replaced(work, capsys):
     before = snapshot(work)
     refused(['import', 'logger.csv', 'bag'], capsys, 'BAGDIR bag: exists; choose another path, or --force')
-    refused(['simulate', '--bag', '.', '--force'], capsys, '--bag .: --force replaces only a previous output')
+    refused(['simulate', '--bag', '.', '--force'], capsys, '--bag .: is or holds the working directory')
+    refused(['import', 'logger.csv', 'bag', '--force'], capsys, 'BAGDIR bag: --force replaces only an output emla')
     assert snapshot(work) == before
 
 

@@ -95,7 +95,11 @@ def _run(parser, argv):
     if args.command is None:
         parser.print_help()
         return 2
-    status = _command_module(args.command).run(args) or 0
+    from emla_cli.commands.staging import release_all
+    try:
+        status = _command_module(args.command).run(args) or 0
+    finally:
+        release_all()   # the outputs it reserved: their staging directories removed, their locks let go
     from emla_cli.commands.output import write_stdout
     write_stdout('')    # flush what the command printed: a full disk or a closed pipe is one line too
     return status

@@ -77,11 +77,11 @@ def _prepare_child():
 class NodeProcess:
     """One node process; the last lines of its output (stdout and stderr) are kept for error messages."""
 
-    def __init__(self, name, args, env):
+    def __init__(self, name, args, env, pass_fds=()):
         self.name = name
         self.popen = subprocess.Popen(args, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
                                       stderr=subprocess.STDOUT, text=True, start_new_session=True,
-                                      preexec_fn=_prepare_child)
+                                      preexec_fn=_prepare_child, pass_fds=pass_fds)
         self.tail = collections.deque(maxlen=20)
         self._reader = threading.Thread(target=self._read, daemon=True)
         self._reader.start()
@@ -123,8 +123,8 @@ class Graph:
         self._closed = threading.Event()
         self._watcher = threading.Thread(target=self._watch, daemon=True)
 
-    def start(self, name, args):
-        node = NodeProcess(name, args, self.env)
+    def start(self, name, args, pass_fds=()):
+        node = NodeProcess(name, args, self.env, pass_fds)
         self.nodes.append(node)
         return node
 
@@ -319,10 +319,13 @@ def write_params(directory, node, parameters):
     return path
 
 
-def launch(scenario, duration, bag, node_parameters, actuator='moving_coil'):
+def launch(scenario, duration, bag, node_parameters, actuator='moving_coil', workdir=None, recorder_fds=()):
     """Run the graph: NODES as processes with `node_parameters` {node: {name: value}} (the plant's duration
     and start barrier are set here), and the recorder writing `bag`. Returns the contract's summary dict;
     raises LaunchError when a node dies or the run stalls. Every process is stopped on return.
+
+    The nodes' params files are written to `workdir` (default: a temporary directory). The recorder keeps the
+    descriptors `recorder_fds` open (the locks of the output it writes: emla_cli.commands.staging).
 
     The identifier's final estimate is a moving coil's /emla/parameters, or with `actuator` 'solenoid' the coil's
     R on /emla/effects (emla_identification.nodes.identifier_node)."""
@@ -338,14 +341,15 @@ def launch(scenario, duration, bag, node_parameters, actuator='moving_coil'):
                                                'done_subscribers': DONE_SUBSCRIBERS},
                   'recorder': {'bag': str(bag), 'scenario': scenario, 'hold_start': True, 'actuator': actuator}}
     solenoid = actuator == 'solenoid'
-    with reserved_domain() as domain, tempfile.TemporaryDirectory(prefix='emla-launch-') as tmp, \
+    with reserved_domain() as domain, _workdir(workdir) as tmp, \
             Graph(domain_env(domain)) as graph, ros_node('emla_launch', domain) as (node, executor), \
             tqdm(total=round(duration, 6), desc=f'{scenario} (domain {domain})', file=sys.stderr,
                  bar_format='{desc}: {n:.3f}/{total} s simulated [{elapsed}]') as bar:
         monitor = Monitor(node, graph.cpu_times, topics.EFFECTS_TOPIC if solenoid else topics.PARAMETERS_TOPIC)
         for name in ('recorder', *NODES):
             graph.start(name, [str(BIN / 'emla'), 'run', name, '--params-file',
-                               str(write_params(tmp, name, parameters.get(name, {})))])
+                               str(write_params(tmp, name, parameters.get(name, {})))],
+                        recorder_fds if name == 'recorder' else ())
         _wait_for_final(graph, monitor, executor, bar)
         # All at once: every message was published before the final estimate came; the recorder records until
         # its topics are quiet (drain_time) and meanwhile acknowledges what the stopping nodes wait for.
@@ -361,6 +365,13 @@ def launch(scenario, duration, bag, node_parameters, actuator='moving_coil'):
     return {'scenario': scenario, 'duration': duration, 'wall_time': round(time.monotonic() - started, 3),
             'realtime_factor': rtf, 'cpu_per_simulated_second': cpu, 'final_parameters': estimates[-1][1],
             'true_parameters': contents.truth[-1][1] if contents.truth else {}, 'bag': str(bag), 'nodes': nodes}
+
+
+def _workdir(directory):
+    """A context of `directory`, or of a new temporary directory removed at its end."""
+    if directory is None:
+        return tempfile.TemporaryDirectory(prefix='emla-launch-')
+    return contextlib.nullcontext(directory)
 
 
 def _wait_for_final(graph, monitor, executor, bar):

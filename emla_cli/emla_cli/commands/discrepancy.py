@@ -36,7 +36,7 @@ def add_arguments(parser):
     parser.add_argument('--json', metavar='FILE', help='write the result here instead of stdout')
     parser.add_argument('--report', metavar='DIR',
                         help='write report.md with PNG figures (and diagnosis.json) into DIR (new or empty; '
-                             'with --force it may hold a previous report, which is replaced)')
+                             'with --force it may hold a previous report emla wrote, which is replaced)')
     parser.add_argument('--candidates', metavar='NAMES',
                         help='comma-separated candidate effects to consider (default: all registered)')
     parser.add_argument('--model-out', metavar='M.yaml',
@@ -76,7 +76,7 @@ def run(args):
     result['warnings'] = lost + warn(hints + diagnosis.warnings + unknown_figures(result), 'discrepancy')
     files = []
     if args.report:
-        files.append((args.report, lambda temporary: _write_report(diagnosis, temporary, json_text(result))))
+        files.append((args.report, lambda temporary: _write_report(diagnosis, temporary, json_text(result)), REPORT))
     if args.model_out:
         from emla_core.model_file import write
         from emla_identification.model import from_fit

@@ -1,11 +1,10 @@
 """`emla import`: measured data (CSV, MAT or another bag) into a rosbag2 directory of the suite's topics."""
-import shutil
 from pathlib import Path
 
 from emla_core.errors import InputError
 
 from .inputs import DATA_HELP, add_data_arguments, load_data, understood
-from .output import BAG, check_outputs, replace_bag, write_stdout
+from .output import BAG, check_outputs, write_output, write_stdout
 
 HELP = 'Convert measured data into a rosbag2 directory (MCAP) with the suite topics.'
 
@@ -23,7 +22,8 @@ the bag. The data must hold voltage, current and position (or force and position
 def add_arguments(parser):
     parser.add_argument('data', metavar='DATA', help='CSV or MAT file, rosbag2 directory or .mcap file')
     parser.add_argument('bagdir', metavar='BAGDIR', help='rosbag2 directory to create (new or empty)')
-    parser.add_argument('--force', action='store_true', help='replace BAGDIR if it holds a bag already')
+    parser.add_argument('--force', action='store_true',
+                        help='replace BAGDIR if it holds a bag emla wrote (and nothing else)')
     add_data_arguments(parser)
 
 
@@ -32,21 +32,10 @@ def run(args):
     check_outputs({}, [args.data], args.force, {'BAGDIR': (args.bagdir, BAG)})
     recording = load_data(args)
     _require_measured(recording, args.data)
-    bag = Path(args.bagdir)
-    replace_bag(bag, args.force)
-    existed = bag.is_dir()
-    fresh = not existed or not any(bag.iterdir())  # else write_recording refuses it, and it is left alone
-    try:
-        write_recording(recording, bag, custom_data={'imported_from': Path(args.data).name})
-    except BaseException:
-        # an interrupted or failed import must not leave a bag that reads as complete
-        if fresh and bag.exists():
-            shutil.rmtree(bag)
-            if existed:
-                bag.mkdir()
-        raise
+    write_output(args.bagdir, lambda temporary: write_recording(
+        recording, temporary, custom_data={'imported_from': Path(args.data).name}), BAG)
     understood(recording, 'import')
-    write_stdout(f'{bag}: {len(recording)} samples of {", ".join(recording.signals)} '
+    write_stdout(f'{args.bagdir}: {len(recording)} samples of {", ".join(recording.signals)} '
                  f'at {1.0 / recording.sample_period:g} Hz\n')
     return 0
 

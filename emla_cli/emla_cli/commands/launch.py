@@ -10,14 +10,13 @@ start-up and stop included.
 """
 import signal
 import sys
-import tempfile
 import time
 from pathlib import Path
 
 from emla_core.parameters import FAMILIES
 
-from . import scenario_args
-from .output import BAG, check_outputs, emit_json, replace_bag
+from . import scenario_args, staging
+from .output import BAG, check_outputs, emit_json, write_output
 
 HELP = 'Run the plant, sensor, identifier and controller nodes as a ROS 2 graph and record a bag.'
 MAX_DURATION = 3600.0  # s: an hour of the graph (about as long in wall time)
@@ -69,14 +68,23 @@ def run(args):
     scenario, duration = scenario_args.scenario_and_duration(args, args.actuator, FAMILIES)
     bag = Path(args.bag) if args.bag else default_bag(scenario.name)
     check_outputs({'--json': args.json}, [args.model_file], args.force, {'--bag': (bag, BAG)})
-    replace_bag(bag, args.force)
+    reservation = staging.reserve(bag)
+    # the params files beside the bag being recorded: a launcher killed leaves nothing elsewhere, and the next
+    # command writing there removes them (emla_cli.commands.staging)
+    workdir = reservation.staging / '.emla-launch'
+    summary = {}
+
+    def record(temporary):
+        workdir.mkdir(exist_ok=True)
+        summary.update(launch(scenario.name, duration, temporary, scenario_parameters(scenario, workdir),
+                              scenario.actuator, workdir=workdir, recorder_fds=staging.held_descriptors()))
+        summary['bag'] = str(bag)
+
     signal.signal(signal.SIGTERM, _interrupt)      # stop the graph as on Ctrl-C
     try:
-        with tempfile.TemporaryDirectory(prefix='emla-launch-model-') as directory:  # a solenoid's model file
-            summary = launch(scenario.name, duration, bag, scenario_parameters(scenario, directory),
-                             scenario.actuator)
+        write_output(bag, record, BAG)
     except LaunchError as error:
-        print(f'emla launch: {error}', file=sys.stderr)
+        print(f'emla launch: {error}; nothing was recorded to {bag}', file=sys.stderr)
         return 1
     emit_json(summary, args.json)
     print(f'emla launch: {duration:g} s simulated in {summary["wall_time"]:.1f} s (real-time factor '

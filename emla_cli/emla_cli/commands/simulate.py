@@ -18,10 +18,9 @@ from emla_core.parameters import FAMILIES
 
 from . import scenario_args
 from .numbers import add_number
-from .output import BAG, check_outputs, publish, replace_bag, stage
+from .output import BAG, FLEET, check_outputs, write_output
 
 PAPER_RISE = 0.267     # the source paper's R from 0.45 to 0.57 ohm over 100 hours
-FLEET = 'fleet.yaml'   # what a fleet directory holds once complete (and --force replaces)
 MAX_RECORDINGS = 10000
 
 HELP = 'Simulate a scenario in-process and record it as a bag.'
@@ -67,7 +66,8 @@ def add_arguments(parser):
                help='time constant of that rise, hours (default 20)')
     long.add_argument('--step', action='append', default=[], metavar='NAME=FACTOR@HOUR',
                       help='a parameter multiplied by FACTOR from HOUR on, e.g. damping=1.3@60 (repeatable)')
-    parser.add_argument('--force', action='store_true', help='replace DIR if it holds a bag (or a fleet) already')
+    parser.add_argument('--force', action='store_true',
+                        help='replace DIR if it holds a bag (or a fleet) emla wrote, and nothing else')
 
 
 def frames(values, n, state):
@@ -158,8 +158,8 @@ def run(args):
     scenario, duration = scenario_args.scenario_and_duration(args)
     started = time.monotonic()
     result = _simulate(scenario, duration, args.model_file)
-    replace_bag(args.bag, args.force)   # only now: a run that fails leaves an earlier bag in place
-    write_bag(result, args.bag, scenario.name)
+    # built beside it and moved into place when complete: a run that fails leaves an earlier bag as it was
+    write_output(args.bag, lambda temporary: write_bag(result, temporary, scenario.name), BAG)
     print(f'emla simulate: {scenario.name}, {duration:g} s ({len(result.recording) - 1} samples) in '
           f'{time.monotonic() - started:.1f} s; bag {args.bag}', file=sys.stderr)
     return 0
@@ -182,10 +182,9 @@ def _solenoid(args):
     started = time.monotonic()
     recording, truth = record(params, duration=duration, sample_period=SOLENOID_PERIOD)
     if args.csv:
-        publish([(stage(args.csv, lambda temporary: write_csv(recording, temporary)), args.csv)])
+        write_output(args.csv, lambda temporary: write_csv(recording, temporary))
     else:
-        replace_bag(args.bag, args.force)
-        _write_solenoid_bag(recording, truth, args.bag)
+        write_output(args.bag, lambda temporary: _write_solenoid_bag(recording, truth, temporary), BAG)
     print(f'emla simulate: solenoid, {duration:g} s ({len(recording)} samples at {1 / SOLENOID_PERIOD:g} Hz) in '
           f'{time.monotonic() - started:.1f} s; {"CSV" if args.csv else "bag"} {args.csv or args.bag}',
           file=sys.stderr)
@@ -250,11 +249,11 @@ def _fleet(args):
             write_bag(result, directory / name, scenario.name, offset=start)
             manifest.append({'bag': name, 'start': start, 'hour': start / 3600.0,
                              'truth': {key: float(v) for key, v in params.physical().items()}})
-        (directory / FLEET).write_text(yaml.safe_dump(
+        (directory / 'fleet.yaml').write_text(yaml.safe_dump(
             {'scenario': scenario.name, 'duration': duration, 'hours': args.hours, 'every': args.every,
              'resistance_rise': args.resistance_rise, 'thermal_time': args.thermal_time,
              'steps': [dataclasses.asdict(step) for step in steps], 'recordings': manifest}, sort_keys=False))
-    publish([(stage(args.fleet, write), args.fleet)])
+    write_output(args.fleet, write, FLEET)
     print(f'emla simulate: {scenario.name}, {len(schedule)} recordings of {duration:g} s over {args.hours:g} h in '
           f'{time.monotonic() - started:.1f} s; fleet {args.fleet}', file=sys.stderr)
     return 0

@@ -9,7 +9,7 @@ from emla_core.errors import InputError
 
 from .inputs import DATA_HELP, add_data_arguments
 from .numbers import add_number
-from .output import add_force_argument, check_outputs, emit_json, stage
+from .output import add_force_argument, check_outputs, emit_json, write_output
 
 HELP = 'Identify many recordings (a fleet, a long run) in parallel on Dask: parameter trends and their changes.'
 COPPER = 0.00393   # 1/K: copper's temperature coefficient of resistance near 20 degC
@@ -145,7 +145,7 @@ def _checkpoint(table):
 
     def write(recordings):
         from emla_identification.fleet import recordings_table, write_table
-        os.replace(stage(table, lambda temporary: write_table(recordings_table(recordings), temporary)), table)
+        write_output(table, lambda temporary: write_table(recordings_table(recordings), temporary))
     return write
 
 

@@ -30,6 +30,14 @@ def offered_qos(topic, msgtype):
             'avoid_ros_namespace_conventions': False}
 
 
+def split_name(bag, index):
+    """The name of split `index` of the bag directory `bag`: `<bag>_<index>.mcap` as rosbag2 names it, the bag's
+    name shortened where that would pass the 255 bytes a file name may have (metadata.yaml lists each split)."""
+    tail = f'_{index}.mcap'
+    stem = os.fsencode(bag)[:255 - len(tail)].decode(errors='ignore')
+    return stem + tail
+
+
 @dataclass
 class _Split:
     path: Path
@@ -95,7 +103,7 @@ class BagWriter:
                                        metadata={'offered_qos_profiles': qos})
 
     def _open_split(self):
-        path = self.path / f'{self.path.name}_{len(self.finished)}.mcap'
+        path = self.path / split_name(self.path.name, len(self.finished))
         stream = path.open('wb')
         writer = Writer(stream, chunk_size=self.chunk_size, compression=CompressionType.ZSTD)
         writer.start(profile='ros2', library='emla')
