@@ -83,7 +83,7 @@ def check_outputs(files, inputs=(), force=False, directories=None):
             if relation := _relation(flag, path, other):
                 raise InputError(f'{flag} {path}: {RELATIONS[relation]} the output {other_flag} {other}; give each '
                                  f'output a path of its own')
-        if _relation(flag, path, Path.cwd()) in ('same', 'holds'):
+        if _relation(flag, path, _working_directory()) in ('same', 'holds'):
             raise InputError(f'{flag} {path}: is or holds the working directory; run the command from outside it')
     for flag, path, kind in outputs:
         _check_existing(flag, path, kind, force)
@@ -101,12 +101,20 @@ def _relation(flag, path, other):
         if os.path.exists(path) and os.path.exists(other) and os.path.samefile(path, other):
             return 'same'
         path, other = path.resolve(), other.resolve()
-    except (RuntimeError, OSError) as exc:   # a symbolic link loop (RuntimeError in Python 3.11)
-        raise InputError(f'{flag} {path}: cannot be resolved ({getattr(exc, "strerror", None) or exc}); '
-                         f'a symbolic link loop?') from None
+    except RuntimeError:   # Python 3.11's Path.resolve on a symbolic link loop
+        raise InputError(f'{flag} {path}: cannot be resolved: a symbolic link loop') from None
+    except OSError as exc:
+        raise InputError(f'{flag} {path}: cannot be resolved: {exc.strerror or exc}') from None
     if path == other:
         return 'same'
     return 'inside' if other in path.parents else 'holds' if path in other.parents else None
+
+
+def _working_directory():
+    try:
+        return Path(os.getcwd())
+    except FileNotFoundError:
+        raise InputError('the working directory no longer exists; cd to one that does') from None
 
 
 def _check_existing(flag, path, kind, force):

@@ -17,6 +17,7 @@ output put back by the next one). Until then the previous output stays as it was
 A directory output holds MARKER: its kind and the files emla wrote into it. `--force` replaces a directory
 only if its marker is of the same kind and it holds nothing else, so a file a user keeps in it is never removed.
 """
+import atexit
 import contextlib
 import ctypes
 import errno
@@ -77,6 +78,7 @@ class Reservation:
 
 
 _held: dict = {}   # absolute target -> Reservation, for the life of the process (release_all ends them)
+atexit.register(lambda: release_all())   # a caller of the commands' run() other than emla_cli.cli
 
 
 def reserve(target):
