@@ -25,7 +25,8 @@ order (a recording's time: its bag's stamps or its time column; recordings witho
 Runs on an embedded local cluster of --workers processes (default: the cores), or sends the same work to a
 running cluster with --scheduler tcp://HOST:PORT (`dask scheduler`, `dask worker`, or dask-jobqueue on
 Slurm/PBS): the answer is the same. A recording that fails is listed under "failed" with its one-line error;
-a worker that dies has its recordings redone by the others.
+a worker that dies has its recordings redone by the others. A scheduler lost mid-run, or no worker for 60 s,
+ends the run in one line (exit 2) with every recording identified so far in --table: --resume goes on from there.
 
 Changes: a parameter that departs from its trend beyond its uncertainty for at least three recordings in a row
 (a two-sided CUSUM), with where, the level before and after and the step in standard deviations.
@@ -72,25 +73,34 @@ def run(args):
     reference = _reference(args.reference, args.alpha)
     if args.resume and not args.table:
         raise InputError('--resume needs --table FILE: the table of the earlier run, whose recordings are skipped')
-    inputs = [*(p for p in args.paths if os.path.exists(p)), args.model_file]
+    from emla_identification import fleet
+    # Every input after the globs' expansion (their matches and the recordings in them: what the run reads), so
+    # that no output lands on one; the run then takes exactly these recordings.
+    recordings = fleet.find_recordings(args.paths)
+    matches = [match for _, found in fleet.expand_paths(args.paths) for match in found]
+    inputs = [*dict.fromkeys([*matches, *recordings]), args.model_file]
     resumed = args.resume and os.path.exists(args.table)
     check_outputs({'--json': args.json, '--plot': args.plot}, inputs, args.force)
     check_outputs({'--table': args.table}, inputs, args.force or resumed)
     if args.table and Path(args.table).suffix.lower() not in ('.parquet', '.csv'):
         raise InputError(f'--table {args.table}: name it .parquet (Parquet) or .csv (CSV)')
-    from emla_identification.fleet import read_table, table_recordings, trend
     structure = None
     if args.model_file:
         from emla_core.model_file import read
         structure = read(args.model_file).require('moving_coil', args.model_file)
-    done = table_recordings(read_table(args.table)) if resumed else ()
-    with _progress() as progress:
-        result = trend(args.paths, actuator=args.actuator, model=args.model, structure=structure,
-                       model_file=args.model_file,
-                       columns=args.columns, units=args.units, topics=args.topics,
-                       sample_period=args.sample_period, delimiter=args.delimiter, decimal=args.decimal,
-                       workers=args.workers, scheduler=args.scheduler, done=done, progress=progress,
-                       checkpoint=_checkpoint(args.table), checkpoint_interval=CHECKPOINT_INTERVAL)
+    done = fleet.table_recordings(fleet.read_table(args.table)) if resumed else ()
+    try:
+        with _progress() as progress:
+            result = fleet.trend(recordings, actuator=args.actuator, model=args.model, structure=structure,
+                                 model_file=args.model_file,
+                                 columns=args.columns, units=args.units, topics=args.topics,
+                                 sample_period=args.sample_period, delimiter=args.delimiter, decimal=args.decimal,
+                                 workers=args.workers, scheduler=args.scheduler, done=done, progress=progress,
+                                 checkpoint=_checkpoint(args.table), checkpoint_interval=CHECKPOINT_INTERVAL)
+    except fleet.ClusterLost as exc:   # the table holds every recording identified (trend's last checkpoint)
+        kept = (f'the {len(exc.recordings)} identified are in --table {args.table}: run again with --resume to go '
+                f'on from there' if args.table else 'give --table FILE to keep the recordings done and --resume')
+        raise InputError(f'{exc}; {kept}') from None
     _summary(result)
     files = []
     if args.table:

@@ -36,6 +36,22 @@ def find_recordings(paths: Iterable[str | Path]) -> list[str]:
         A path that does not exist and matches nothing, or no recording found at all.
     """
     found, seen = [], set()
+    for given, matches in expand_paths(paths):
+        for match in matches:
+            for path in _recordings_in(Path(match), explicit=match == given):
+                key = os.path.realpath(path)
+                if key not in seen:
+                    seen.add(key)
+                    found.append(str(path))
+    if not found:
+        raise InputError(f'no recordings (CSV, MAT or .mcap files, bag directories) in {", ".join(map(str, paths))}')
+    return found
+
+
+def expand_paths(paths: Iterable[str | Path]) -> list[tuple[str, list[str]]]:
+    """(given, matches) of each of `paths`: itself when it exists, else the files and directories its glob pattern
+    matches (sorted); what find_recordings searches. InputError for a path that is neither."""
+    expanded = []
     for given in paths:
         given = str(given)
         if os.path.exists(given):
@@ -46,15 +62,8 @@ def find_recordings(paths: Iterable[str | Path]) -> list[str]:
                 raise InputError(f'{given}: no file or directory matches this pattern')
         else:
             raise InputError(f'{given}: no such file or directory')
-        for match in matches:
-            for path in _recordings_in(Path(match), explicit=match == given):
-                key = os.path.realpath(path)
-                if key not in seen:
-                    seen.add(key)
-                    found.append(str(path))
-    if not found:
-        raise InputError(f'no recordings (CSV, MAT or .mcap files, bag directories) in {", ".join(map(str, paths))}')
-    return found
+        expanded.append((given, matches))
+    return expanded
 
 
 def _recordings_in(path, explicit):

@@ -3,7 +3,9 @@ default, or a running scheduler), in time order, with the changes of each parame
 
 Nothing lost: a recording that fails is listed with its one-line error and the rest go on; a worker that dies
 has its recordings redone by the others (the scheduler's own bookkeeping); one that kills its workers again and
-again (KilledWorker) is listed as failed. Nothing redone: recordings already identified (`done`, from an earlier
+again (KilledWorker) is listed as failed. A cluster that is gone (the scheduler lost, or no worker left for
+WORKERS_TIMEOUT s) ends the run in ClusterLost, after a last checkpoint of every recording finished: its recordings
+not done are never listed as failed. Nothing redone: recordings already identified (`done`, from an earlier
 run's table) are skipped. Memory per worker is one recording's (long bags are identified part by part, as
 `emla identify` does), and the client holds only the small results.
 """
@@ -25,10 +27,20 @@ from .changes import detect_changes
 from .recordings import DATA_FLAGS, GREYBOX_MODELS, find_recordings, identify_recording
 from .table import recordings_table
 
-CONNECT_TIMEOUT = 10.0   # s to reach a scheduler
-WORKERS_TIMEOUT = 60.0   # s for a scheduler's first worker to be there
+CONNECT_TIMEOUT = 10.0   # s to reach a scheduler and have its answer (the TCP connect and dask's handshake)
+WORKERS_TIMEOUT = 60.0   # s for a scheduler's first worker to be there, and with no worker (or no answer) mid-run
+HEALTH_INTERVAL = 1.0    # s between looks at the cluster while no result comes
 SCHEDULER_SCHEMES = ('tcp://', 'tls://')
 JSON_KEYS = ('path', 'start', 'duration', 'parameters', 'std', 'fit', 'warnings')
+
+
+class ClusterLost(InputError):
+    """The cluster went away mid-run (the scheduler lost, or no worker left): `done` of `total` recordings
+    finished (identified or failed), the rest not done; `recordings` the ones identified (checkpointed already)."""
+
+    def __init__(self, message, done, total, recordings):
+        super().__init__(message)
+        self.done, self.total, self.recordings = done, total, recordings
 
 
 @dataclass
@@ -107,7 +119,11 @@ def trend(paths: Iterable[str | Path], *, actuator: str = 'moving_coil', model: 
     Raises
     ------
     InputError
-        No recordings, a bad option, or a scheduler that cannot be reached or has no workers.
+        No recordings, a bad option, or a scheduler that cannot be reached, does not answer within CONNECT_TIMEOUT
+        or has no workers.
+    ClusterLost
+        (an InputError) The scheduler lost mid-run, or no worker there for WORKERS_TIMEOUT s: `checkpoint` has
+        been given every recording finished; .done, .total, .recordings.
 
     Examples
     --------
@@ -154,30 +170,109 @@ def _time_order(record):
 
 
 def _identify_all(client, todo, options, identified, failed, total, progress, checkpoint, interval):
-    """Submit every path of `todo`, collect each result as it comes into `identified` or `failed`."""
+    """Submit every path of `todo`, collect each result as it comes into `identified` or `failed`; ClusterLost
+    (after a checkpoint) when the cluster goes away."""
     from distributed import as_completed
 
     futures = client.map(identify_recording, [os.path.abspath(p) for p in todo],
                          [{**options, 'source': p} for p in todo], key=[_key(p) for p in todo])
     source = {future.key: p for future, p in zip(futures, todo)}
+    pending = as_completed(futures, loop=client.loop)
+    del futures    # (`pending` holds them until collected, and each is released then)
+    health = _Health(client, total)
     last = time.monotonic()
     try:
-        for future in as_completed(futures, loop=client.loop):
-            try:
-                result = future.result()
-            except Exception as exc:  # noqa: BLE001 - KilledWorker and the like: this recording's failure
-                result = {'path': source[future.key], 'error': _lost(exc)}
-            future.release()
-            (failed if 'error' in result else identified).append(result)
-            if progress:
-                progress(len(identified) + len(failed), total, len(failed))
+        while not pending.is_empty():
+            batch = pending.next_batch(block=False)
+            if not batch:
+                health.check(len(identified) + len(failed))
+                time.sleep(0.05)
+                continue
+            health.seen()
+            cancelled = 0
+            for future in batch:
+                try:
+                    result = None if future.cancelled() else future.result()
+                except Exception as exc:  # noqa: BLE001 - KilledWorker and the like: this recording's failure
+                    result = None if _cancelled(exc) else {'path': source[future.key], 'error': _lost(exc)}
+                future.release()
+                if result is None:   # cancelled: the scheduler's state lost (with its connection); not done
+                    cancelled += 1
+                    continue
+                (failed if 'error' in result else identified).append(result)
+                if progress:
+                    progress(len(identified) + len(failed), total, len(failed))
+            if cancelled:
+                health.lost(len(identified) + len(failed))
             if checkpoint and time.monotonic() - last >= interval:
                 checkpoint(list(identified))
                 last = time.monotonic()
+    except ClusterLost as exc:
+        exc.recordings = list(identified)
+        if checkpoint:
+            checkpoint(list(identified))
+        raise
     except KeyboardInterrupt:
         if checkpoint:
             checkpoint(list(identified))
         raise
+
+
+class _Health:
+    """The cluster's state while the results come: ClusterLost when the client has lost its scheduler, or when
+    no worker has been there (or the scheduler has not answered) for WORKERS_TIMEOUT s."""
+
+    def __init__(self, client, total):
+        self.client, self.total = client, total
+        self.looked = self.worker_seen = time.monotonic()
+
+    def seen(self):
+        """A result came: there are workers."""
+        self.looked = self.worker_seen = time.monotonic()
+
+    def check(self, done):
+        """ClusterLost if the cluster is gone (see the class); a look at its workers every HEALTH_INTERVAL s."""
+        if not self._connected():
+            self.lost(done)
+        if time.monotonic() - self.looked < HEALTH_INTERVAL:
+            return
+        try:
+            workers = len(self.client.nthreads(callback_timeout=CONNECT_TIMEOUT))
+            answered = True
+        except Exception:  # noqa: BLE001 - no answer in time, or the connection closed meanwhile
+            if not self._connected():
+                self.lost(done)
+            workers, answered = 0, False
+        self.looked = time.monotonic()
+        if workers:
+            self.worker_seen = self.looked
+        elif self.looked - self.worker_seen >= WORKERS_TIMEOUT:
+            what = 'no worker has been connected' if answered else 'the scheduler has not answered'
+            raise ClusterLost(f'{_where(self.client)}: {what} for {WORKERS_TIMEOUT:g} s; {self._counts(done)}',
+                              done, self.total, [])
+
+    def lost(self, done):
+        raise ClusterLost(f'{_where(self.client)}: the scheduler was lost mid-run (its connection closed); '
+                          f'{self._counts(done)}', done, self.total, [])
+
+    def _connected(self):
+        return self.client.status in ('running', 'newly-created')
+
+    def _counts(self, done):
+        return f'{done} of {self.total} recordings done, {self.total - done} not done'
+
+
+def _where(client):
+    """'--scheduler ADDRESS' of a scheduler's client, else 'the cluster' (for messages)."""
+    address = _address(client)
+    return f'--scheduler {address}' if '://' in str(address) else 'the cluster'
+
+
+def _cancelled(exc):
+    """Whether `exc` is a future's cancellation (distributed's FutureCancelledError and its kin), not a failure."""
+    import asyncio
+    import concurrent.futures
+    return isinstance(exc, (asyncio.CancelledError, concurrent.futures.CancelledError))
 
 
 def _key(path):
@@ -207,18 +302,25 @@ def _cluster(workers, scheduler, client):
         if not scheduler.startswith(SCHEDULER_SCHEMES) or ':' not in scheduler.split('://', 1)[1]:
             raise InputError(f'--scheduler {scheduler}: give the address as tcp://HOST:PORT')
         _reachable(scheduler)
-        try:
-            remote = Client(scheduler, timeout=CONNECT_TIMEOUT, set_as_default=False)
-        except (OSError, TimeoutError) as exc:
-            raise InputError(f'--scheduler {scheduler}: cannot connect within {CONNECT_TIMEOUT:g} s '
-                             f'({" ".join(str(exc).split()) or type(exc).__name__})') from None
-        with remote:
+        connection = _connection_args(scheduler)
+        _answers(scheduler, connection)
+        with _quiet():   # (the client's reconnect attempts log tracebacks: a lost scheduler is trend's one line)
             try:
-                remote.wait_for_workers(1, timeout=WORKERS_TIMEOUT)
-            except TimeoutError:
-                raise InputError(f'--scheduler {scheduler}: no worker joined within {WORKERS_TIMEOUT:g} s; start '
-                                 f'some with `dask worker {scheduler}`') from None
-            yield remote, scheduler, len(remote.nthreads())
+                remote = Client(scheduler, timeout=CONNECT_TIMEOUT, set_as_default=False)
+            except (OSError, TimeoutError) as exc:
+                raise InputError(f'--scheduler {scheduler}: cannot connect within {CONNECT_TIMEOUT:g} s '
+                                 f'({" ".join(str(exc).split()) or type(exc).__name__})') from None
+            with remote:
+                try:
+                    remote.wait_for_workers(1, timeout=WORKERS_TIMEOUT)
+                    count = len(remote.nthreads(callback_timeout=CONNECT_TIMEOUT))
+                except TimeoutError:
+                    raise InputError(f'--scheduler {scheduler}: no worker joined within {WORKERS_TIMEOUT:g} s; '
+                                     f'start some with `dask worker {scheduler}`') from None
+                except OSError as exc:
+                    raise InputError(f'--scheduler {scheduler}: the scheduler was lost before the run began '
+                                     f'({" ".join(str(exc).split()) or type(exc).__name__})') from None
+                yield remote, scheduler, count
         return
     count = workers or len(os.sched_getaffinity(0))
     with warnings.catch_warnings():   # (a busy dashboard port and the like: nothing the user asked about)
@@ -233,18 +335,90 @@ def _cluster(workers, scheduler, client):
 
 
 def _reachable(scheduler):
-    """InputError at once when nothing listens at a tcp:// scheduler's address (the client would retry until its
+    """InputError at once when nothing listens at a scheduler's address (the client would retry until its
     timeout)."""
-    if not scheduler.startswith('tcp://'):
-        return
     import socket
-    host, _, port = scheduler[len('tcp://'):].rpartition(':')
+    host, _, port = scheduler.split('://', 1)[1].rpartition(':')
     try:
         with socket.create_connection((host.strip('[]'), int(port)), timeout=CONNECT_TIMEOUT):
             pass
     except (OSError, ValueError) as exc:
         raise InputError(f'--scheduler {scheduler}: cannot connect ({getattr(exc, "strerror", None) or exc}); is '
                          f'`dask scheduler` running there?') from None
+
+
+def _connection_args(scheduler):
+    """The client's connection arguments (dask's configuration: distributed.comm.tls.*); InputError for a tls://
+    address without a TLS certificate configured."""
+    from distributed.security import Security
+    connection = Security().get_connection_args('client')
+    if scheduler.startswith('tls://') and connection.get('ssl_context') is None:
+        raise InputError(f'--scheduler {scheduler}: TLS needs certificates in dask\'s configuration '
+                         f'(distributed.comm.tls.ca-file, distributed.comm.tls.client.cert and .key, or '
+                         f'DASK_DISTRIBUTED__COMM__TLS__CA_FILE ...), and none is set; or give a tcp:// address')
+    return connection
+
+
+def _answers(scheduler, connection):
+    """InputError unless a dask scheduler answers at `scheduler` within CONNECT_TIMEOUT s: the TCP connect, dask's
+    handshake and one request (distributed bounds only the connect: a server that accepts and stays silent would
+    hold the client for ever). Run on an event loop of its own, in a thread of its own."""
+    import asyncio
+    import threading
+
+    from distributed.comm import connect
+
+    async def ask():
+        comm = await connect(scheduler, timeout=CONNECT_TIMEOUT, **connection)
+        try:
+            await comm.write({'op': 'identity', 'n_workers': 0})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    outcome = {}
+
+    def run():
+        try:
+            outcome['answer'] = asyncio.run(asyncio.wait_for(ask(), CONNECT_TIMEOUT))
+        except BaseException as exc:  # noqa: BLE001 - reported below, in the caller's thread
+            outcome['error'] = exc
+
+    with _quiet():
+        thread = threading.Thread(target=run, name='emla-trend-connect', daemon=True)
+        thread.start()
+        thread.join(CONNECT_TIMEOUT + 5.0)
+    error, answer = outcome.get('error'), outcome.get('answer')
+    if error is None and answer is None:
+        error = TimeoutError()
+    if isinstance(error, (TimeoutError, asyncio.TimeoutError)):
+        raise InputError(f'--scheduler {scheduler}: accepts a connection but gives no answer within '
+                         f'{CONNECT_TIMEOUT:g} s; is it a `dask scheduler`?') from None
+    if error is not None:
+        raise InputError(f'--scheduler {scheduler}: cannot connect ({type(error).__name__}: '
+                         f'{" ".join(str(error).split()) or "no message"}); is `dask scheduler` running '
+                         f'there?') from None
+    kind = answer.get('type') if isinstance(answer, dict) else None
+    if kind != 'Scheduler':
+        raise InputError(f'--scheduler {scheduler}: answers as {kind or "something else"}, not as a dask scheduler '
+                         f'(`dask scheduler` prints its address as it starts)')
+
+
+@contextlib.contextmanager
+def _quiet():
+    """distributed's own log lines held back (raised to CRITICAL) for the while: what goes wrong reaches the user
+    as trend's one line or its failed items."""
+    names = ['distributed'] + [name for name, logger in logging.root.manager.loggerDict.items()
+                               if name.startswith('distributed.') and isinstance(logger, logging.Logger)
+                               and logger.level != logging.NOTSET]   # (distributed.client has a level of its own)
+    levels = {name: logging.getLogger(name).level for name in names}
+    for name in names:
+        logging.getLogger(name).setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        for name, level in levels.items():
+            logging.getLogger(name).setLevel(level)
 
 
 def _address(client):
