@@ -46,7 +46,8 @@ def test_a_record_the_nominal_model_alone_cannot_fit_is_diagnosed(seed, hidden):
 
 def test_a_model_file_from_before_the_friction_damping_reads_it_as_zero(tmp_path):
     path = tmp_path / 'old.yaml'
-    path.write_text('emla_model: 1\nsample_period: 1e-4\neffects: [{effect: coulomb_friction, '
+    path.write_text('emla_model: 1\nsample_period: 1e-4\nparameters: {mass: 0.036, damping: 2.0, load_force: 0.0}\n'
+                    'effects: [{effect: coulomb_friction, '
                     'parameters: {coulomb_force: {value: 1.0, std: 0.01}}}]\n')
     effect = read(path).effects[0]
     assert effect.parameters == {'coulomb_force': (1.0, 0.01), 'presliding_damping': (0.0, None)}

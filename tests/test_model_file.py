@@ -113,7 +113,8 @@ def test_launch_gives_the_plant_node_the_models_effects(learned):
     ('emla_model: 1\nsample_period: 1e-4\nparameters: {resistence: 4}\n', 'unknown parameter(s) resistence'),
     ('emla_model: 1\nsample_period: fast\n', 'sample_period must be a finite number'),
     ('emla_model: 1\nsample_period: -1e-4\n', 'sample_period must be within (0, 10] s'),
-    ('emla_model: 1\nsample_period: 1e-4\neffects: [{effect: gremlins, parameters: {x: 1}}]\n',
+    ('emla_model: 1\nsample_period: 1e-4\nparameters: {resistance: 4, inductance: 0.002, emf_constant: 10}\n'
+     'effects: [{effect: gremlins, parameters: {x: 1}}]\n',
      "no candidate 'gremlins'"),
     # nonsense the physics layer's bounds refuse (issue 19)
     ('emla_model: 1\nsample_period: 1e-4\nparameters: {resistance: -4}\n', 'parameters.resistance -4 is outside'),
@@ -139,7 +140,8 @@ def test_a_bad_model_file_is_one_line(learned, tmp_path, text, problem):
 
 def test_the_model_file_format_round_trips(tmp_path):
     from emla_core.model_file import Model, ModelEffect, write
-    model = Model(1e-4, {'resistance': (4.0, 0.01), 'mass': (0.036, None)},
+    model = Model(1e-4, {'resistance': (4.0, 0.01), 'inductance': (0.002, None), 'emf_constant': (10.0, 0.1),
+                         'mass': (0.036, None)},
                   [ModelEffect('magnetic_stiffness', 'return_spring', {'spring_stiffness': (-2000.0, 3.0)},
                                {'spring_center': 0.001})], {'data': 'x', 'command': 'test'})
     write(model, tmp_path / 'm.yaml')

@@ -71,7 +71,8 @@ def test_the_moving_coils_commands_refuse_a_solenoids_model(valve, capsys, tmp_p
     one_line_error(capsys, ['identify', folder / 'v1.csv', '--model-file', model], 'a solenoid model')
     one_line_error(capsys, ['simulate', 'default', '--model-file', model, '--bag', tmp_path / 'b'], 'a solenoid model')
     moving = tmp_path / 'coil.yaml'
-    moving.write_text('emla_model: 1\nsample_period: 1e-4\nparameters: {resistance: 4.0}\n')
+    moving.write_text('emla_model: 1\nsample_period: 1e-4\nparameters: {resistance: 4.0, inductance: 0.002, '
+                      'emf_constant: 10.0}\n')
     one_line_error(capsys, ['compare', folder / 'v2.csv', '--model-file', model, '--model-file', moving],
                    'different actuators')
     one_line_error(capsys, ['simulate', '--actuator', 'solenoid', '--model-file', moving, '--csv', tmp_path / 'x.csv'],

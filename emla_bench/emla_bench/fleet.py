@@ -4,7 +4,8 @@ import math
 from dataclasses import dataclass
 
 from emla_core.errors import InputError
-from emla_core.parameters import PARAMETER_NAMES, ActuatorParameters
+from emla_core.limits import STAMP_LIMIT, STAMP_LIMIT_S
+from emla_core.parameters import PARAMETER_BOUNDS, PARAMETER_NAMES, PARAMETER_UNITS, ActuatorParameters
 
 HOUR = 3600.0
 PAPER_RISE = 0.267     # the source paper: R from 0.45 to 0.57 ohm over its 100 hours
@@ -54,6 +55,11 @@ def long_run(base: ActuatorParameters, hours: float, every: float, *, resistance
     list of (float, ActuatorParameters)
     """
     count = max(1, math.ceil(hours / every - 1e-9))
+    last = (count - 1) * every
+    if last * HOUR >= STAMP_LIMIT_S:   # a stamp's sec is int32: later recordings would wrap to negative times
+        raise InputError(f'--hours {hours:g} --every {every:g}: the last recording would start at hour {last:g} '
+                         f'({last * HOUR:.4g} s), past the {STAMP_LIMIT} a ROS time stamp holds; give --hours '
+                         f'{STAMP_LIMIT_S / HOUR:.0f} or less')
     out = []
     for k in range(count):
         hour = k * every
@@ -62,5 +68,11 @@ def long_run(base: ActuatorParameters, hours: float, every: float, *, resistance
             if hour >= step.hour:
                 factors[step.name] = factors.get(step.name, 1.0) * step.factor
         changed = {name: getattr(base, name) * factor for name, factor in factors.items()}
+        for name, value in changed.items():   # a factor of 1e308 would overflow (inf: a ValueError below)
+            low, high = PARAMETER_BOUNDS[name]
+            if not low <= value <= high:
+                given = ' '.join(f'--step {s.name}={s.factor:g}@{s.hour:g}' for s in steps if s.name == name)
+                raise InputError(f'{given or "--resistance-rise"}: {name} would be {value:g} '
+                                 f'{PARAMETER_UNITS[name]} at hour {hour:g}, outside [{low:g}, {high:g}]')
         out.append((hour * HOUR, base.replace(**changed)))
     return out

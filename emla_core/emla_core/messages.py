@@ -11,6 +11,7 @@ import struct
 import numpy as np
 from builtin_interfaces.msg import Time
 
+from emla_core.limits import MAX_STAMP_NS, check_stamp
 from emla_core.parameters import PARAMETER_NAMES
 from emla_core.topics import SIGNALS
 from emla_msgs.msg import ArxModel, EffectEstimate, ParameterEstimate, SampleFrame
@@ -32,7 +33,10 @@ def serialize(message):
 # ---- builtin_interfaces/Time ----
 
 def time_msg(ns):
-    """A builtin_interfaces/Time of `ns` nanoseconds."""
+    """A builtin_interfaces/Time of `ns` nanoseconds; InputError beyond what it holds (limits.check_stamp: its
+    sec is a signed 32-bit integer, which rclpy would wrap without a word)."""
+    if not 0 <= ns <= MAX_STAMP_NS:
+        check_stamp(ns, 'a stamp')
     return Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
 
 
@@ -61,6 +65,8 @@ _FRAME_PERIOD = struct.Struct('<dI')
 def _frame_body(stamp, sample_period, data, at):
     """A SampleFrame (empty frame_id) serialised from body offset `at` (a multiple of 4)."""
     data = np.ascontiguousarray(data, dtype='<f8')
+    if not 0 <= stamp <= MAX_STAMP_NS:
+        check_stamp(stamp, 'a frame stamp')
     head = _FRAME_STAMP.pack(stamp // 1_000_000_000, stamp % 1_000_000_000, 1) + bytes(4 if at % 8 == 0 else 8) \
         + _FRAME_PERIOD.pack(sample_period, len(data))
     return head + bytes(4) + data.tobytes() if len(data) else head

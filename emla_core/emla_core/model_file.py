@@ -30,12 +30,14 @@ import dataclasses
 import datetime
 import math
 import os
+import re
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import yaml
 
 from emla_core.errors import InputError
+from emla_core.limits import MAX_NESTING, read_document
 from emla_core.parameters import FAMILIES, PARAMETER_BOUNDS, PARAMETER_NAMES
 
 if TYPE_CHECKING:
@@ -80,11 +82,15 @@ class Model:
             fields.update({name: effect.settings[name] for name in settings if name in effect.settings})
         return SolenoidParameters(**fields)
 
-    def require(self, actuator: str, source: str = 'model file') -> Model:
-        """This model if it is of the family `actuator`; an InputError in one line naming both otherwise."""
+    def require(self, actuator: str, source: str = 'model file', whole: bool = False) -> Model:
+        """This model if it is of the family `actuator` (and with `whole`, gives every parameter: a plant is
+        simulated from it); an InputError in one line naming what is wrong otherwise."""
         if self.actuator != actuator:
             raise InputError(f'{source}: a {self.actuator} model; this needs a {actuator} model'
                              + (' (--actuator solenoid)' if self.actuator == 'solenoid' else ''))
+        if whole and self.missing(whole=True):
+            raise InputError(f'{source}: gives one equation of the actuator; simulating it needs every parameter, '
+                             f'and it lacks {", ".join(self.missing(whole=True))}')
         return self
 
     def plant_effects(self, source: str = 'model file') -> tuple[Effect, ...]:
@@ -101,6 +107,15 @@ class Model:
             except ValueError as exc:
                 raise InputError(f'{source}: {exc}') from None
         return tuple(out)
+
+    def missing(self, whole: bool = False) -> list[str]:
+        """The nominal parameters this model lacks to be complete ([] if it is): every one of its family's, or of
+        one equation of a moving coil (what `identify --model electrical|mechanical` writes) unless `whole`."""
+        lacking = [name for name in _names(self.actuator) if name not in self.parameters]
+        if whole or self.actuator != 'moving_coil':
+            return lacking
+        return min(([n for n in names if n not in self.parameters] for names in (lacking, *EQUATIONS.values())),
+                   key=len)
 
     def to_yaml(self) -> str:
         def pair(value, std):
@@ -144,8 +159,13 @@ def provenance(data: Path | str, command: str) -> dict[str, str]:
 
 
 def write(model: Model, path: Path | str) -> None:
-    """Write `model` to `path` (complete or not at all)."""
+    """Write `model` to `path` (complete or not at all); InputError for a model that lacks a nominal parameter of
+    its family, which no command would read (see read)."""
     path = Path(path)
+    if model.missing():
+        raise InputError(f'{path.name}: a {model.actuator} model file gives every parameter of its actuator or of '
+                         f'one equation (no command reads one that does not); this model lacks '
+                         f'{", ".join(model.missing())}')
     temporary = path.with_name(f'.{path.name}.{os.getpid()}')
     try:
         temporary.write_text(model.to_yaml())
@@ -156,26 +176,25 @@ def write(model: Model, path: Path | str) -> None:
 
 
 def read(path: Path | str) -> Model:
-    """The Model in a model file, or InputError naming the file and what is wrong with it."""
+    """The Model in a model file, or InputError naming the file and what is wrong with it.
+
+    The one reader of model files: every command that takes one (simulate, launch, compare, identify, trend, the
+    nodes) accepts or refuses a file alike. A file is refused if it is larger than limits.MAX_DOCUMENT_BYTES, not
+    YAML, gives a key twice, writes a number otherwise than as a plain decimal (YAML 1.1 reads 1:30 as 90, 010 as
+    8), or is not complete (Model.missing: no value is filled in from Table 1)."""
     path = Path(path)
-    try:
-        document = yaml.safe_load(path.read_text())
-    except RecursionError:
-        raise InputError(f'{path}: nested too deeply to be a model file') from None
-    except FileNotFoundError:
-        raise InputError(f'{path}: no such model file') from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f'{path}: cannot read: {exc}') from None
-    except yaml.YAMLError as exc:
-        raise InputError(f'{path}: not YAML: {" ".join(str(exc).split())}') from None
-    if not isinstance(document, dict) or document.get('emla_model') != FORMAT:
+    document = load_yaml(read_document(path, 'model file'), path, 'model file')
+    if not isinstance(document, dict) or 'emla_model' not in document:
         raise InputError(f'{path}: not an emla model file (it must start with `emla_model: {FORMAT}`)')
-    unknown = sorted(set(document) - {'emla_model', 'actuator', 'sample_period', 'parameters', 'effects',
-                                      'provenance'})
+    version = document['emla_model']
+    if type(version) is not int or version != FORMAT:   # (True == 1 in Python: a bool is no version)
+        raise InputError(f'{path}: emla_model must be the format version {FORMAT}, got {version!r}')
+    unknown = sorted(map(str, set(document) - {'emla_model', 'actuator', 'sample_period', 'parameters', 'effects',
+                                               'provenance'}))
     if unknown:
         raise InputError(f'{path}: unknown key(s) {", ".join(unknown)}')
     actuator = document.get('actuator', 'moving_coil')
-    if actuator not in FAMILIES:
+    if not isinstance(actuator, str) or actuator not in FAMILIES:
         raise InputError(f'{path}: actuator must be one of {", ".join(FAMILIES)}, got {actuator!r}')
     period = _number(document.get('sample_period'), path, 'sample_period')
     if not 0 < period <= 10.0:
@@ -192,8 +211,110 @@ def read(path: Path | str) -> Model:
         if not low <= value <= high:
             raise InputError(f'{path}: parameters.{name} {value:g} is outside [{low:g}, {high:g}]')
     provenance = document.get('provenance') or {}
-    return Model(period, parameters, _effects(document, path, _check_effect),
-                 provenance if isinstance(provenance, dict) else {})
+    return _complete(Model(period, parameters, _effects(document, path, _check_effect),
+                           provenance if isinstance(provenance, dict) else {}), path)
+
+
+# A moving coil's model file may give one equation alone (identified from its signals only).
+EQUATIONS = {'electrical': ('resistance', 'inductance', 'emf_constant'),
+             'mechanical': ('mass', 'damping', 'load_force')}
+
+
+def _complete(model, path):
+    """`model` if it is complete (Model.missing); InputError naming what it lacks otherwise."""
+    missing = model.missing()
+    if missing:
+        raise InputError(f'{path}: a {model.actuator} model needs {", ".join(missing)} (a model file gives every '
+                         f'parameter of its actuator, or of one of its equations; none is filled in)')
+    return model
+
+
+MAX_DIGITS = 300   # characters of a number in a model file: more than any float's 17 significant digits need
+
+
+class StrictLoader(yaml.CSafeLoader):
+    """libyaml's safe loader, refusing what YAML 1.1 reads otherwise than a person means: a key given twice (the
+    last value silently won), numbers in base 60 (1:30 is 90), octal (010 is 8), hexadecimal or binary, with
+    underscores, or of more digits than any float holds; a date that does not exist (a ValueError otherwise).
+    Each refusal is a yaml.MarkedYAMLError with the line."""
+
+    def construct_mapping(self, node, deep=False):
+        if isinstance(node, yaml.MappingNode):
+            seen = {}
+            for key_node, _ in node.value:
+                if key_node.tag == 'tag:yaml.org,2002:merge':
+                    continue
+                key = self.construct_object(key_node, deep=True)
+                try:
+                    first = seen.setdefault(key, key_node)
+                except TypeError:   # unhashable: the base class says so
+                    continue
+                if first is not key_node:
+                    raise yaml.constructor.ConstructorError(
+                        None, None, f'{key!r} is given twice (first on line {first.start_mark.line + 1})',
+                        key_node.start_mark)
+        return super().construct_mapping(node, deep)
+
+    def _plain_number(self, node, pattern, kind):
+        text = self.construct_scalar(node)
+        if not re.fullmatch(pattern, text):
+            try:
+                meant = f' (YAML 1.1 reads it as {getattr(super(), f"construct_yaml_{kind}")(node)!r})'
+            except (ValueError, OverflowError):
+                meant = ''
+            raise yaml.constructor.ConstructorError(
+                None, None, f'{text[:40]!r} is not a plain decimal number{meant}: write numbers as 90 or 1.5e-3',
+                node.start_mark)
+        if len(text) > MAX_DIGITS:
+            raise yaml.constructor.ConstructorError(
+                None, None, f'a number of {len(text)} characters ({text[:12]}...) is longer than any the suite '
+                f'reads ({MAX_DIGITS})', node.start_mark)
+        return text
+
+    def construct_yaml_int(self, node):
+        return int(self._plain_number(node, r'[-+]?(0|[1-9][0-9]*)', 'int'))
+
+    def construct_yaml_float(self, node):
+        self._plain_number(node, r'[-+]?([0-9]+\.[0-9]*|\.[0-9]+)([eE][-+][0-9]+)?|[-+]?\.(inf|Inf|INF)'
+                                 r'|\.(nan|NaN|NAN)', 'float')
+        return super().construct_yaml_float(node)
+
+    def construct_yaml_timestamp(self, node):
+        try:
+            return super().construct_yaml_timestamp(node)
+        except (ValueError, OverflowError) as exc:
+            raise yaml.constructor.ConstructorError(None, None, f'not a date: {exc}', node.start_mark) from None
+
+
+StrictLoader.add_constructor('tag:yaml.org,2002:int', StrictLoader.construct_yaml_int)
+StrictLoader.add_constructor('tag:yaml.org,2002:float', StrictLoader.construct_yaml_float)
+StrictLoader.add_constructor('tag:yaml.org,2002:timestamp', StrictLoader.construct_yaml_timestamp)
+
+
+def load_yaml(text: str, path: Path | str, what: str = 'model file'):
+    """The YAML document `text` of the file `path` (a `what`) read with StrictLoader; InputError in one line,
+    naming the line, if it is not YAML, is nested more than MAX_NESTING levels deep (libyaml's loader would
+    overflow the C stack) or has what StrictLoader refuses."""
+    try:
+        depth = 0
+        for event in yaml.parse(text, Loader=yaml.CSafeLoader):
+            depth += isinstance(event, yaml.CollectionStartEvent) - isinstance(event, yaml.CollectionEndEvent)
+            if depth > MAX_NESTING:
+                raise InputError(f'{path}: nested too deeply to be a {what} (more than {MAX_NESTING} levels, line '
+                                 f'{event.start_mark.line + 1})')
+        return yaml.load(text, Loader=StrictLoader)
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        where = f'line {mark.line + 1}: ' if mark else ''
+        if isinstance(exc, yaml.constructor.ConstructorError) and exc.problem and exc.context is None:
+            raise InputError(f'{path}: {where}{exc.problem}') from None
+        raise InputError(f'{path}: not YAML: {where}{" ".join(str(exc.problem or exc.context).split())}') from None
+    except yaml.YAMLError as exc:
+        raise InputError(f'{path}: not YAML: {" ".join(str(exc).split())}') from None
+    except RecursionError:
+        raise InputError(f'{path}: nested too deeply to be a {what}') from None
+    except (ValueError, OverflowError) as exc:   # a value a constructor cannot build
+        raise InputError(f'{path}: not a {what}: {" ".join(str(exc).split())[:200]}') from None
 
 
 def _effects(document, path, check):
@@ -219,9 +340,7 @@ def _effects(document, path, check):
 
 def _solenoid_model(document, path, period, parameters):
     """A solenoid's Model from its checked document: every parameter given, its effects, a possible solenoid."""
-    missing = [name for name in _names('solenoid') if name not in parameters]
-    if missing:
-        raise InputError(f'{path}: a solenoid model needs {", ".join(missing)}')
+    _complete(Model(period, parameters, actuator='solenoid'), path)
     provenance = document.get('provenance') or {}
     model = Model(period, parameters, _effects(document, path, _check_solenoid_effect),
                   provenance if isinstance(provenance, dict) else {}, actuator='solenoid')
@@ -277,14 +396,15 @@ def _check_effect(effect, path, where):
 
 
 def _number(value, path, where):
-    if isinstance(value, str):     # YAML 1.1 reads 1e-4 (no dot) as a string
-        try:
-            value = float(value)
-        except ValueError:
-            pass
+    if isinstance(value, str) and len(value) <= MAX_DIGITS and _DECIMAL.fullmatch(value):
+        value = float(value)   # YAML 1.1 reads 1e-4 (no dot) as a string
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise InputError(f'{path}: {where} must be a finite number, got {value!r}')
+        shown = f'{value[:40]!r}' if isinstance(value, str) else repr(value)
+        raise InputError(f'{path}: {where} must be a finite number, got {shown}')
     return float(value)
+
+
+_DECIMAL = re.compile(r'[-+]?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][-+]?[0-9]+)?')   # a number YAML 1.1 left a string
 
 
 def _pairs(section, path, where):

@@ -7,7 +7,6 @@ import re
 import signal
 import sys
 from importlib.metadata import entry_points
-from pathlib import Path
 
 from emla_core.errors import InputError
 
@@ -57,10 +56,11 @@ def _check_params_file(path, ros_args):
     would fail with a traceback. Its structure is checked by rcl's own parser, without a ROS context."""
     import yaml
     from rclpy.utilities import remove_ros_args
-    if not Path(path).is_file():
-        raise InputError(f'{path}: no such params file')
+
+    from emla_core.limits import read_document
+    text = read_document(path, 'params file')   # bounded: a file of gigabytes is one line, not minutes
     try:
-        list(yaml.compose_all(Path(path).read_text(), Loader=yaml.SafeLoader))  # the syntax only, as rcl reads it
+        list(yaml.compose_all(text, Loader=yaml.SafeLoader))  # the syntax only, as rcl reads it
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark
         raise InputError(f'{path}: not YAML: {exc.problem} (line {mark.line + 1}, column {mark.column + 1})') from None

@@ -30,6 +30,6 @@ def scenario_and_duration(args, actuator=None, families=('moving_coil',)):
                          f'{scenario.name}` and `emla launch {scenario.name}`')
     if args.model_file:
         from emla_core.model_file import read
-        model = read(args.model_file).require(scenario.actuator, args.model_file)
+        model = read(args.model_file).require(scenario.actuator, args.model_file, whole=True)
         scenario = scenario.with_model(model, args.model_file)
     return scenario, scenario.duration if args.duration is None else args.duration

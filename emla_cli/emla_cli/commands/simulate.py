@@ -92,7 +92,9 @@ def write_bag(result, path, scenario, offset=0.0):
     from emla_core.parameters import PARAMETER_NAMES
 
     recording = result.recording
-    period, start = recording.sample_period, topics.to_ns(recording.start_time + offset)
+    # stamps as whole ns of the offset plus those of the run: (t + offset) in floats rounds differently at an
+    # offset of hours, and the last estimate fell after the bag's end
+    period, start = recording.sample_period, topics.to_ns(recording.start_time) + topics.to_ns(offset)
     step = topics.to_ns(period)
     n, n_true = round(topics.CONTROL_PERIOD / period), round(topics.ESTIMATE_PERIOD / period)
     end = start + (len(recording) - 1) * step
@@ -103,8 +105,8 @@ def write_bag(result, path, scenario, offset=0.0):
                topics.PLANT_TOPICS['position']: (result.truth['position'], True, n_true),
                topics.COMMAND_TOPIC: (recording.signals['voltage'], False, n),
                topics.REFERENCE_TOPIC: (recording.signals['reference'], False, n_true)}
-    logged = [(f, topics.to_ns(t + offset)) for f, t in enumerate(result.frame_times)
-              if topics.to_ns(t + offset) <= end]
+    logged = [(f, topics.to_ns(t) + topics.to_ns(offset)) for f, t in enumerate(result.frame_times)
+              if topics.to_ns(t) + topics.to_ns(offset) <= end]
     truth = {name: float(values[logged[-1][0]]) for name, values in result.true_parameters.items()}
     zero = dict.fromkeys(PARAMETER_NAMES, 0.0)
     with BagWriter(path, custom_data={'scenario': scenario, **{f'true_{k}': repr(v) for k, v in truth.items()}}) as bag:

@@ -181,6 +181,12 @@ def write_recording(recording, path, *, frame_size=100, estimates=(), custom_dat
         raise InputError(f'{recording.source or path}: the data run from t = {recording.start_time:.6g} s to '
                          f'{end:.6g} s; a bag stamps them in nanoseconds from 0 to 584 years: give a time column '
                          f'that starts at 0 or later')
+    from emla_core.limits import MAX_STAMP_NS, STAMP_LIMIT
+    last = recording.start_time + max(len(recording) - 1, 0) * period
+    latest = max([last, *(t for t, _ in estimates)])
+    if to_ns(latest) > MAX_STAMP_NS:   # a header's sec is int32: it would wrap to a negative second
+        raise InputError(f'{recording.source or path}: the data run to t = {latest:.10g} s; a ROS time stamp holds 0 '
+                         f'to {STAMP_LIMIT}: give a time column that ends before, e.g. from 0')
     start_ns = to_ns(recording.start_time)
     data = dict(recording.metadata)
     data.update(custom_data or {})

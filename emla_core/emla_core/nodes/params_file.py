@@ -7,11 +7,11 @@ wildcards '*' (one name) and '**' (any number of names), as in '/**'.
 """
 import difflib
 import re
-from pathlib import Path
 
 import yaml
 
 from emla_core.errors import InputError
+from emla_core.limits import read_document
 
 NAMESPACE = '/emla'
 SUITE_NODES = ('recorder', 'plant', 'sensor', 'identifier', 'controller')  # the executables' node names
@@ -19,16 +19,18 @@ SUITE_NODES = ('recorder', 'plant', 'sensor', 'identifier', 'controller')  # the
 
 def read_params_files(args):
     """{path: YAML tree} of the params files given with --params-file in the command line `args` (its ROS
-    arguments); InputError (one line) for one that is unreadable, not YAML or nested too deeply. Read before
+    arguments); InputError (one line) for one that is missing, not a regular file, larger than
+    limits.MAX_DOCUMENT_BYTES (checked before it is read), unreadable, not YAML or nested too deeply. Read before
     rclpy.init: rcl's parser takes minutes over a deeply nested file."""
     trees = {}
     for path in (value for flag, value in zip(args, args[1:], strict=False) if flag == '--params-file'):
+        text = read_document(path, 'params file')
         try:
-            trees[path] = yaml.safe_load(Path(path).read_text())
+            trees[path] = yaml.safe_load(text)
         except RecursionError:
             raise InputError(f'{path}: nested too deeply to be a params file') from None
-        except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
-            raise InputError(f'{path}: unreadable params file: {" ".join(str(exc).split())}') from None
+        except (yaml.YAMLError, ValueError) as exc:   # ValueError: a value YAML cannot build (a date 2024-13-01)
+            raise InputError(f'{path}: unreadable params file: {" ".join(str(exc).split())[:300]}') from None
     return trees
 
 
