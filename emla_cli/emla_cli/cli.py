@@ -4,7 +4,9 @@ Each command module has HELP (one line), description() (the user's text of `emla
 by hand), add_arguments(parser) and run(args) -> exit status.
 """
 import argparse
+import errno
 import importlib
+import io
 import os
 import sys
 from importlib.metadata import PackageNotFoundError, version
@@ -70,11 +72,22 @@ def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
     # Only the named command's module is imported (fast start); --help and usage errors load them all.
     chosen = next((a for a in argv if not a.startswith('-')), None)
+    if sys.stdout is None:   # started with stdout closed (>&-): what is printed there fails as an OSError
+        sys.stdout = ClosedStream()
     parser = build_parser([chosen] if chosen in COMMANDS else tuple(COMMANDS))
     try:
         return _run(parser, argv)
     except InputError as exc:
         print(f'emla {chosen}: error: {exc}', file=sys.stderr)
+        return 2
+    except ClosedStreamError:
+        print(f'emla {chosen}: error: cannot write to stdout: it is closed', file=sys.stderr)
+        return 2
+    except OSError as exc:   # a path the command could not use where no reader said so: one line, as a last resort
+        if exc.filename is None:
+            raise
+        from emla_core.files import os_reason
+        print(f'emla {chosen}: error: {exc.filename}: {os_reason(exc.filename, exc)}', file=sys.stderr)
         return 2
     except (MemoryError, RecursionError) as exc:   # bugs to fix where they arise; one line here as a last resort
         what = 'out of memory' if isinstance(exc, MemoryError) else 'recursion too deep'
@@ -84,6 +97,26 @@ def main(argv=None):
     except KeyboardInterrupt:
         print(f'emla {chosen}: interrupted', file=sys.stderr)
         return 130
+
+
+class ClosedStreamError(OSError):
+    """A write to a standard stream that was closed when emla started."""
+
+
+class ClosedStream(io.TextIOBase):
+    """sys.stdout when emla was started with it closed: every write fails as an OSError (EBADF), which the
+    commands' writers turn into one line, not an AttributeError on None."""
+
+    def write(self, text):
+        if text:
+            raise ClosedStreamError(errno.EBADF, 'stdout is closed')
+        return 0
+
+    def fileno(self):
+        return 1
+
+    def isatty(self):
+        return False
 
 
 def _run(parser, argv):

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from emla_core.errors import InputError
+from emla_core.files import path_kind
 from emla_core.recording import Recording
 from emla_core.sampling import steady_period
 from emla_core.units import SIGNAL_NAMES, SIGNAL_UNITS, parse_assignments, parse_unit, split_header
@@ -61,9 +62,10 @@ def load(path: Path | str, *, columns: str | None = None, units: str | None = No
         The file is missing or unreadable, or its data unusable (the message names the file and problem).
     """
     path = Path(path)
-    if not path.exists():
+    kind = path_kind(path)
+    if kind is None:
         raise InputError(f'{path}: no such file or directory')
-    bag = path.is_dir() or path.suffix in BAG_SUFFIXES
+    bag = kind == 'dir' or path.suffix in BAG_SUFFIXES
     mat = not bag and path.suffix.lower() == '.mat'
     tables, csv = 'CSV and MAT files; map bag topics with --topics', 'CSV files'
     for flag, value, applies, scope in (
@@ -104,7 +106,7 @@ def read_csv(path: Path | str, *, columns: str | None = None, units: str | None 
 def from_columns(table, source, *, columns=None, units=None, sample_period=None, row='sample', first=0):
     """A Recording of named columns {name: array} (see `load`); `row`/`first` name places in messages."""
     chosen = _choose(table, columns, sample_period, source)
-    given_units = parse_assignments('--units', units, ('t', *SIGNAL_NAMES))
+    given_units = parse_assignments('--units', units, ('t', *SIGNAL_NAMES), 'UNIT')
     unmapped = sorted(set(given_units) - set(chosen))
     if unmapped:
         raise InputError(f'{source}: --units names {", ".join(unmapped)}, which no column holds')
@@ -142,8 +144,8 @@ def _mat_period(path, vectors, columns, units, sample_period):
     come back without their t (which the vectors do not hold); `how` is None where no scalar is used, else
     {'input', 'how'} for the recording's inputs['t'] and sampling."""
     from emla_core.tables import mat_scalars
-    mapped = parse_assignments('--columns', columns, ('t', *SIGNAL_NAMES))
-    given_units = parse_assignments('--units', units, ('t', *SIGNAL_NAMES))
+    mapped = parse_assignments('--columns', columns, ('t', *SIGNAL_NAMES), 'SOURCE')
+    given_units = parse_assignments('--units', units, ('t', *SIGNAL_NAMES), 'UNIT')
     if 't' in mapped and mapped['t'] in vectors:
         return columns, units, sample_period, None
     if 't' not in mapped:
@@ -200,7 +202,7 @@ def _period_name(name):
 def _choose(names, columns, sample_period, source):
     """{signal: column} of the column `names` for the --columns mapping `columns` (see `_match`), with a time
     column unless there is a `sample_period`."""
-    chosen = _match(names, parse_assignments('--columns', columns, ('t', *SIGNAL_NAMES)), source,
+    chosen = _match(names, parse_assignments('--columns', columns, ('t', *SIGNAL_NAMES), 'SOURCE'), source,
                     skip=('t',) if sample_period is not None else ())
     if 't' in chosen and sample_period is not None:
         raise InputError(f'{source}: give either a time column or --sample-period, not both')

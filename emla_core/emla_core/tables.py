@@ -26,6 +26,7 @@ DELIMITERS = {',': ',', ';': ';', 'tab': '\t', '\t': '\t', '|': '|'}
 DECIMALS = ('.', ',')
 MAX_HEADER_CHARS = 1 << 16      # a longer first line is no CSV header (a binary file, or one without newlines)
 PROGRESS_BYTES = 64 << 20       # a CSV file from this size shows a progress bar when stderr is a terminal
+BLOCK_BYTES = 1 << 20           # of the CSV file pyarrow parses at a time: a longer line cannot be parsed
 MAX_MAT_VARIABLES = 10_000
 MAX_MAT_VALUES = 500_000_000    # values of the variables read from one MATLAB file together: 4 GB as float64
 NUMERIC_CLASSES = ('double', 'single', 'int8', 'uint8', 'int16', 'uint16', 'int32', 'uint32', 'int64', 'uint64')
@@ -145,7 +146,7 @@ def _parse(path, names, dialect, show):
     options = dict(
         # unnamed columns get names no header holds, and are not converted
         read_options=pacsv.ReadOptions(column_names=[name or f'\0{i}' for i, name in enumerate(names)],
-                                       skip_rows=1),
+                                       skip_rows=1, block_size=BLOCK_BYTES),
         parse_options=pacsv.ParseOptions(delimiter=dialect.delimiter),
         convert_options=pacsv.ConvertOptions(column_types={name: pa.float64() for name in named},
                                              include_columns=named, null_values=[],
@@ -184,6 +185,8 @@ def _parse_error(path, names, dialect, message):
     width = re.search(r'Expected (\d+) columns, got (\d+)', message)
     # (pyarrow names the row too in some runs: "column #1: Row #3: CSV conversion error ...")
     value = re.search(r"column #(\d+): (?:Row #\d+: )?CSV conversion error to double: invalid value '(.*)'", message)
+    if 'straddl' in message:   # pyarrow's "straddling object straddles two block boundaries"
+        return _long_line(path)
     if width:
         row = _find_row(path, dialect, lambda fields: len(fields) != len(names))
         return f'{path}: {width.group(2)} values per row but {len(names)} columns in the header{row}'
@@ -194,6 +197,25 @@ def _parse_error(path, names, dialect, message):
                 else ' (a decimal comma? give --decimal ,)' if ',' in text else '')
         return f'{path}: not numeric CSV: {text!r} in column {names[index]}{row}{hint}'
     return f'{path}: not a readable CSV file: {" ".join(message.split())}'
+
+
+def _long_line(path):
+    """The message for a CSV file with a line longer than BLOCK_BYTES: which line (1 is the header) and how long,
+    found by reading the file again block by block (never a whole line at once)."""
+    def message(where):
+        return (f'{path}: not a readable CSV file: {where}, more than the {BLOCK_BYTES >> 20} MiB a line may have '
+                f'(a damaged file, or one without line ends?)')
+    number, length = 1, 0
+    with path.open('rb') as f:
+        while block := f.read(BLOCK_BYTES):
+            start = 0
+            while (end := block.find(b'\n', start)) >= 0:
+                length += end - start
+                if length > BLOCK_BYTES:
+                    return message(f'line {number} has {length:,} bytes')
+                number, length, start = number + 1, 0, end + 1
+            length += len(block) - start
+    return message(f'line {number} has {length:,} bytes' if length > BLOCK_BYTES else 'a line is longer')
 
 
 def _find_row(path, dialect, wrong):

@@ -64,8 +64,13 @@ def split_header(column):
     return column, None
 
 
-def parse_assignments(flag, text, keys=None):
-    """{KEY: VALUE} of 'KEY=VALUE[,KEY=VALUE...]' given to `flag`; keys checked against `keys` if given."""
+def parse_assignments(flag, text, keys=None, what='VALUE'):
+    """{KEY: VALUE} of 'KEY=VALUE[,KEY=VALUE...]' given to `flag`; keys checked against `keys` if given. None is
+    the flag not given ({}); a text without any assignment ('', ',') is an InputError: the flag given empty
+    (`what` names what follows NAME= in its message)."""
+    if text is not None and not any(part.strip() for part in text.split(',')):
+        raise InputError(f'{flag} {text!r} is empty: give NAME={what}[,...]'
+                         + (f' with NAME one of {", ".join(keys)}' if keys is not None else ''))
     pairs = {}
     for item in filter(None, (part.strip() for part in (text or '').split(','))):
         key, equals, value = item.partition('=')

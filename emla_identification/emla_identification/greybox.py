@@ -66,10 +66,17 @@ class GreyBoxResult:
     def warnings(self) -> list:
         """One line for each equation that does not fit the data and for each unresolved parameter."""
         lines = [line for line in (f.warning() for f in self.fit.values()) if line]
-        for name in self.unresolved():
+        unresolved = self.unresolved()
+        for name in unresolved:
             lines.append(f'the data do not resolve the {name}: {self.parameters[name]:.4g} +- {self.std[name]:.2g}'
                          + (f' (the coil\'s L/R is {self.time_constant() / self.sample_period:.2g} sample periods)'
                             if name == 'inductance' else ''))
+        if unresolved and self.forgetting < 1.0:   # the estimate rests on its memory, not on the whole record
+            lam = self.forgetting
+            lines.append(f'with forgetting factor {lam:g} the estimate remembers only 1/(1 - {lam:g}) = '
+                         f'{1.0 / (1.0 - lam):.3g} of the {self.samples} samples: a memory that short leaves it '
+                         f'noisy; a forgetting factor closer to 1 (--forgetting 1 uses the whole record) or a '
+                         f'longer --memory-time resolves more')
         return lines
 
     def time_constant(self) -> float:

@@ -7,7 +7,16 @@ current pushes towards +x). A signal that runs the other way round gives a patte
   position negated   Km < 0 alone                 (the back-EMF and the force both change sign; m, B stay)
   voltage negated    R, L, Km, m, B < 0           (the same as current and position negated together)
 so only the one signal whose pattern matches is advised; signs that match none point to poorly determined
-parameters instead.
+parameters instead. A pattern is taken for a flipped signal only where each of its negative estimates lies beyond
+SIGN_SIGMAS of zero and, with forgetting, the memory 1/(1 - lambda) holds at least MIN_SIGN_MEMORY samples:
+otherwise the signs are the estimate's noise (a memory too short for the data), and that is said instead.
+
+Outliers. One sample far off its neighbours (a logging glitch: 1e6 V among volts) distorts every estimate (R
+many times too large) and then looks like a voltage that is not the coil's. Each signal is measured against its
+running median (OUTLIER_WINDOW samples, which follows steps and runs of more than half its width): a sample is an
+isolated outlier when it lies more than OUTLIER_MADS robust deviations (1.4826 MAD of the differences from that
+median) from it and outside the signal's central span (its OUTLIER_PERCENTILE percentiles) widened by that span
+on each side. Outliers are named first (signal, sample, time, value), ahead of the unit and sign hints.
 
 Units. A unit slip rescales the parameters consistently (a current in mA divides R and L by 1000 and
 multiplies m, B and Fl by 1000), so the equations cannot show it; the magnitudes do: a coil's current is
@@ -46,6 +55,13 @@ MAX_MASS = 1e4              # kg: above this beside an L/R above MAX_TIME_CONSTA
 PEAK_PERCENTILE = 99.9      # of |signal|, taken as its peak: one glitch does not count
 BALANCE_TOLERANCE = 1.5     # a model's balances on data agree with one misread signal to within this factor
 BALANCE_FACTOR = 2.0        # and name it when it is misread by more than this factor (or flipped)
+SIGN_SIGMAS = 3.0           # a negative estimate within this many sigma of zero is noise, not a flipped signal
+MIN_SIGN_MEMORY = 10.0      # samples: a shorter memory 1/(1 - lambda) makes an estimate whose signs say nothing
+OUTLIER_WINDOW = 7          # samples of the running median an outlier is measured from (runs up to 3 stand out)
+OUTLIER_MADS = 50.0         # robust deviations from the running median from which a sample may be an outlier
+OUTLIER_PERCENTILE = 1.0    # the signal's central span: its OUTLIER_PERCENTILE and 100 - it percentiles
+MIN_OUTLIER_SAMPLES = 16    # shorter signals are not checked
+SHOWN_OUTLIERS = 3          # outliers named in a warning (the count says the rest)
 
 SI_UNITS = {'t': 's', 'voltage': 'V', 'current': 'A', 'position': 'm', 'velocity': 'm/s', 'force': 'N'}
 PREFIXES = {1e-3: 'm', 1e-6: 'u'}
@@ -100,7 +116,7 @@ def _finite(values):
     return values if values is not None and values.size else None
 
 
-def plausibility_warnings(parameters, std, recording, identified=True):
+def plausibility_warnings(parameters, std, recording, identified=True, forgetting=1.0, samples=None):
     """One-line warnings about a model of an actuator and the record it was identified from or compared with.
 
     Parameters
@@ -116,24 +132,95 @@ def plausibility_warnings(parameters, std, recording, identified=True):
     identified : bool, optional
         Whether the parameters were identified from this record (then a slip's warning names the parameters
         it distorted) or come from elsewhere, a model file (then they are only measured against the record).
+    forgetting : float, optional
+        The forgetting factor the parameters were identified with (1: none); a memory 1/(1 - forgetting) too
+        short for the data is named as the cause of negative estimates rather than a flipped signal.
+    samples : int, optional
+        The record's samples (for the message; default: those of `recording`).
 
     Returns
     -------
     list of str
         Each names the signal or parameter, the likely cause and the flag that fixes it; empty when all is
-        plausible.
+        plausible. Isolated outliers in the signals come first.
     """
     magnitudes = Magnitudes.of(recording)
     inputs = getattr(recording, 'inputs', None) or {}
     shown = parameters if identified else {}
+    found = outlier_warnings(recording)
     if identified:
-        found, named = [_signs(parameters, std, recording.signals, inputs), _coil_voltage(parameters, magnitudes)], ()
+        memory = Memory(forgetting, samples if samples is not None else _samples(recording.signals))
+        found += [_signs(parameters, std, recording.signals, inputs, memory), _coil_voltage(parameters, magnitudes)]
+        named = ()
     else:
         against = _against_model(parameters, recording.signals, recording.sample_period, inputs)
-        found, named = ([against[1]], (against[0],)) if against else ([], ())
+        found, named = (found + [against[1]], (against[0],)) if against else (found, ())
     found += [check(parameters, magnitudes, inputs, shown) for signal, check in UNIT_CHECKS.items()
               if signal not in named]
     return [message for message in found if message]
+
+
+def outlier_warnings(recording):
+    """One warning for each signal of `recording` with isolated outliers (module doc), naming the signal, how
+    many, and the first SHOWN_OUTLIERS of them by sample (1-based), time and value; [] for none."""
+    warnings = []
+    start, ts = getattr(recording, 'start_time', 0.0) or 0.0, recording.sample_period
+    for name, values in recording.signals.items():
+        found = isolated_outliers(values)
+        if not len(found):
+            continue
+        unit = f' {SI_UNITS[name]}' if name in SI_UNITS else ''
+        values = np.asarray(values, dtype=float)
+        shown = '; '.join(f'{values[i]:.4g}{unit} at sample {i + 1} (t = {start + i * ts:.6g} s)'
+                          for i in found[:SHOWN_OUTLIERS])
+        more = f' and {len(found) - SHOWN_OUTLIERS} more' if len(found) > SHOWN_OUTLIERS else ''
+        low, high = np.percentile(values, (OUTLIER_PERCENTILE, 100 - OUTLIER_PERCENTILE))
+        count = 'an isolated outlier' if len(found) == 1 else f'{len(found)} isolated outliers'
+        warnings.append(f'the {name} has {count}, far off its neighbours and its range ({low:.3g} to {high:.3g}'
+                        f'{unit}): {shown}{more}; a logging glitch? it distorts every estimate: remove or repair '
+                        f'{"it" if len(found) == 1 else "them"}')
+    return warnings
+
+
+def isolated_outliers(values):
+    """Indices of the isolated outliers of a signal (module doc), in order; empty for none or a signal too
+    short or too flat to tell."""
+    from scipy.ndimage import median_filter
+    values = np.asarray(values, dtype=float)
+    if values.ndim != 1 or values.size < MIN_OUTLIER_SAMPLES or not np.all(np.isfinite(values)):
+        return np.empty(0, dtype=int)
+    low, high = np.percentile(values, (OUTLIER_PERCENTILE, 100 - OUTLIER_PERCENTILE))
+    span = high - low
+    if not span > 0:
+        return np.empty(0, dtype=int)
+    deviation = np.abs(values - median_filter(values, size=OUTLIER_WINDOW, mode='nearest'))
+    spread = 1.4826 * np.median(deviation)
+    beyond = (deviation > OUTLIER_MADS * spread) & ((values < low - span) | (values > high + span))
+    return np.flatnonzero(beyond)
+
+
+def _samples(signals):
+    """The samples of the longest signal, or None."""
+    return max((len(v) for v in signals.values()), default=None) or None
+
+
+@dataclass(frozen=True)
+class Memory:
+    """The forgetting factor an estimate was made with and the samples of its record."""
+
+    forgetting: float = 1.0
+    samples: int = None
+
+    @property
+    def samples_remembered(self):
+        """1/(1 - forgetting), or inf without forgetting."""
+        return np.inf if self.forgetting >= 1.0 else 1.0 / (1.0 - self.forgetting)
+
+    def words(self):
+        """'the forgetting factor L remembers only 1/(1 - L) = N samples (of the record's M)'."""
+        of = f' (of the record\'s {self.samples})' if self.samples else ''
+        return (f'the forgetting factor {self.forgetting:g} remembers only 1/(1 - {self.forgetting:g}) = '
+                f'{self.samples_remembered:.3g} samples{of}')
 
 
 def unit_flag(inputs, name, factor):
@@ -162,19 +249,25 @@ def _usual_factor(size, limit):
     return next((f for f in PREFIXES if size * f <= limit), None)
 
 
-def _signs(parameters, std, signals, inputs):
-    """The sign slip whose pattern the parameters' signs match, advised alone; or the negative ones named."""
+def _signs(parameters, std, signals, inputs, memory=None):
+    """The sign slip whose pattern the parameters' signs match, advised alone; or the negative ones named; or,
+    where they are the estimate's noise (within SIGN_SIGMAS of zero, or from a memory below MIN_SIGN_MEMORY
+    samples), that."""
+    memory = memory or Memory()
     value = parameters.get
     sigma = std.get('damping', 0.0)
     negative = [n for n in ('resistance', 'inductance', 'emf_constant', 'mass') if value(n, 1.0) < 0]
-    if value('damping', 0.0) < -3.0 * (sigma if np.isfinite(sigma) else 0.0):
+    if value('damping', 0.0) < -SIGN_SIGMAS * (sigma if np.isfinite(sigma) else 0.0):
         negative.append('damping')
     if not negative:
         return None
     listed = ', '.join(f'{n} {parameters[n]:.4g} {UNITS[n]}' for n in negative)
-    if negative == ['damping']:   # no flipped signal makes B < 0 alone
+    if negative == ['damping'] and memory.samples_remembered >= MIN_SIGN_MEMORY:   # no flip makes B < 0 alone
         return (f'{listed} is negative beyond its uncertainty: an effect the model lacks (a sensor delay, a '
                 f'friction; emla discrepancy looks for it) or too little motion to resolve it')
+    noise = _sign_noise(parameters, std, negative, memory)
+    if noise:
+        return noise
     if 'force' in signals:   # m dv/dt = F - B v - Fl: a negated force and a negated position look the same
         return (f'{listed} must be positive: the force runs {SIGN_CAUSES["force"]}; flip one of them with '
                 f'{unit_flag(inputs, "force", -1)} or {unit_flag(inputs, "position", -1)}')
@@ -193,6 +286,30 @@ def _signs(parameters, std, signals, inputs):
                 f'full tells which); flip it with ' + ' or '.join(unit_flag(inputs, s, -1) for s in matches))
     return (f'{listed} must be positive, and no single flipped signal gives these signs: the record probably '
             f'does not determine them (does it excite the actuator?)')
+
+
+def _sign_noise(parameters, std, negative, memory):
+    """The warning for `negative` estimates that are the estimate's noise rather than a flipped signal: some
+    within SIGN_SIGMAS of zero (a missing or non-finite sigma: undetermined), or all from a memory shorter than
+    MIN_SIGN_MEMORY samples; None when the signs are significant."""
+    def within(name):
+        sigma = std.get(name, 0.0)
+        return not abs(parameters[name]) > SIGN_SIGMAS * sigma if np.isfinite(sigma) else True
+    weak = [n for n in negative if within(n)]
+    short = memory.samples_remembered < MIN_SIGN_MEMORY
+    if not weak and not short:
+        return None
+    listed = ', '.join(f'{n} {parameters[n]:.4g} +- {std[n]:.2g} {UNITS[n]}' if n in std else
+                       f'{n} {parameters[n]:.4g} {UNITS[n]}' for n in negative)
+    verb = 'is' if len(negative) == 1 else 'are'
+    near = f' ({", ".join(weak)} within {SIGN_SIGMAS:g} sigma of zero)' if weak else ''
+    if memory.forgetting < 1.0:
+        return (f'{listed} {verb} negative: {memory.words()}, a memory too short for these data: the estimate is '
+                f'mostly noise{near}, not a flipped signal; take a forgetting factor closer to 1 (--forgetting 1 '
+                f'uses the whole record) or a longer --memory-time')
+    return (f'{listed} {verb} negative but within {SIGN_SIGMAS:g} sigma of zero ({", ".join(weak)}): the '
+            f'estimate\'s noise, not a flipped signal; the record does not determine them (does it excite the '
+            f'actuator?)')
 
 
 def _balances(parameters, signals, sample_period):

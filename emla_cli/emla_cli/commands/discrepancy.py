@@ -57,8 +57,8 @@ def run(args):
     if args.actuator == 'solenoid':
         return _solenoid(args)
     names = None
-    if args.candidates:
-        names = [n.strip() for n in args.candidates.split(',') if n.strip()]
+    if args.candidates is not None:   # given empty ('' or ','): refused below, not taken for all
+        names = list(dict.fromkeys(n.strip() for n in args.candidates.split(',') if n.strip()))   # each once
         unknown = [n for n in names if n not in CANDIDATES]
         if unknown or not names:
             raise InputError(f'--candidates {args.candidates!r}: unknown effect(s) '

@@ -5,6 +5,7 @@ Ends after --count messages, or with status 1 when no message came for --timeout
 """
 import array
 import os
+import re
 import sys
 import time
 
@@ -18,6 +19,7 @@ from .numbers import add_number
 HELP = 'Print the messages of a topic as YAML.'
 MAX_COUNT = 10**9       # messages, and elements shown
 MAX_TIMEOUT = 86400.0   # s: a day
+MAX_SHOWN = 60          # characters of a refused topic name shown
 
 
 def description():
@@ -55,15 +57,21 @@ def to_plain(value, limit=None):
     return value
 
 
-def check_topic(name):
-    """InputError (one line) unless `name` is a valid ROS topic name."""
+def check_topic(name, node='emla_echo'):
+    """InputError (one line) unless `name` is a valid ROS topic name, as written and as expanded for the
+    `node` (in the root namespace): the full name's rules too, such as its length."""
     from rclpy.exceptions import InvalidTopicNameException
+    from rclpy.expand_topic_name import expand_topic_name
+    from rclpy.validate_full_topic_name import validate_full_topic_name
     from rclpy.validate_topic_name import validate_topic_name
     try:
         validate_topic_name(name)
-    except InvalidTopicNameException as exc:
+        validate_full_topic_name(expand_topic_name(name, node, '/'))
+    except (InvalidTopicNameException, ValueError) as exc:
         reason = str(exc).splitlines()[0].removeprefix('Invalid topic name: ').rstrip(':')
-        raise InputError(f'{name!r} is not a topic name: {reason}') from None
+        reason = re.sub(r"'(\d+)U - (\d+)U'", lambda m: f'{int(m[1]) - int(m[2])} characters', reason)
+        shown = repr(name) if len(name) <= MAX_SHOWN else f'{name[:MAX_SHOWN]!r}... ({len(name)} characters)'
+        raise InputError(f'{shown} is not a topic name: {reason}') from None
 
 
 def subscriber_qos(publishers):

@@ -118,7 +118,7 @@ def run(args):
         from emla_core.model_file import read
         structure = read(args.model_file).require('moving_coil', args.model_file)
     with read_warnings() as lost:  # a bag's skipped chunks and the data they cost, for the JSON too
-        parts = None
+        parts, lam = None, 1.0   # lam: the forgetting factor of the grey-box estimate
         if model == 'arx':
             recording = load_data(args)
             result, plot = _arx(recording, orders, _memory(args, forgetting, recording), args)
@@ -131,10 +131,11 @@ def run(args):
         else:
             from emla_identification.streaming import read_record
             recording, parts = read_record(args.data, lambda path: load_data(args), plain=not foreign(args))
-            result, plot, identified, trajectory, fit = _greybox(recording, parts, model,
-                                                                 _memory(args, forgetting, recording), args)
+            lam = _memory(args, forgetting, recording)
+            result, plot, identified, trajectory, fit = _greybox(recording, parts, model, lam, args)
     from emla_identification.plausibility import plausibility_warnings
-    slips = [] if model == 'arx' else plausibility_warnings(result['parameters'], result['std'], recording)
+    slips = [] if model == 'arx' else plausibility_warnings(result['parameters'], result['std'], recording,
+                                                            forgetting=lam, samples=result.get('samples'))
     found = slips or fit   # a slip the plausibility checks name is the root cause of any misfit
     if fit and not slips and result.get('model') == 'full' and parts is None:   # another actuator family's record?
         from emla_identification.solenoid import solenoid_hint
@@ -188,9 +189,13 @@ def _observer(args):
     _solenoid_only(args, allowed=('--plot',))
     check_outputs({'--json': args.json, '--position-out': args.position_out, '--plot': args.plot},
                   [args.data, args.observer_from], args.force)
-    try:
-        fit = json.loads(Path(args.observer_from).read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+    from emla_core.limits import read_document
+    text = read_document(args.observer_from, 'JSON file')   # at most limits.MAX_DOCUMENT_BYTES, checked first
+    try:   # numbers as floats: a 5000-digit integer is no ValueError here and no OverflowError later
+        fit = json.loads(text, parse_int=float)
+    except RecursionError:
+        raise InputError(f'--observer-from {args.observer_from}: cannot read it as JSON (nested too deeply)') from None
+    except ValueError as exc:   # json.JSONDecodeError is one
         raise InputError(f'--observer-from {args.observer_from}: cannot read it as JSON ({exc})') from None
     params, noise = observer_model(fit)
     with read_warnings() as lost:

@@ -58,6 +58,8 @@ def _open(args):
     """The played topics {topic: message type} of the bag, the stamp of the first message (ns) and the messages
     (topic, type, stamp ns, CDR bytes) in time order. A bag without any fails here, before ROS starts."""
     from emla_core.bag import bag_topics, iter_serialized
+    from emla_core.files import path_kind
+    path_kind(args.bag)   # a path that cannot be looked up at all (a name too long, a symlink loop): one line
     played = {topic: msgtype for topic, msgtype in bag_topics(args.bag).items()
               if msgtype in PLAYED_TYPES and (not args.topics or topic in args.topics)}
     messages = iter_serialized(args.bag, list(played)) if played else iter(())

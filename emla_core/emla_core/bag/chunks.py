@@ -52,7 +52,7 @@ def iter_chunks(path, signals=None, chunk_samples=1 << 14):
         return
     names = sorted({topic[len(NAMESPACE):] for _, channels in layouts for topic in channels.values()})
     if not names:
-        raise InputError(f'{path}: no SampleFrame topics under {NAMESPACE}')
+        raise InputError(f'{path}: no SampleFrame messages under {NAMESPACE}: the bag holds no samples')
     aligner = _Aligner(path, names, names if signals is None else [n for n in names if n in signals],
                        chunk_samples, custom)
     skipped = []
@@ -97,7 +97,7 @@ class _Aligner:
         # A signal without frames (all in skipped chunks, or counted by a summary only) is absent, as from read_bag.
         self.names = [name for name in self.names if name in self.start]
         if not self.names:
-            raise InputError(f'{self.path}: no SampleFrame topics under {NAMESPACE}')
+            raise InputError(f'{self.path}: no SampleFrame messages under {NAMESPACE}: the bag holds no samples')
         self.queues = {name: queue for name, queue in self.queues.items() if name in self.start}
         return self._parts(final=True)
 

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from emla_core.errors import InputError
-from emla_core.files import regular_file
+from emla_core.files import path_kind, regular_file
 from emla_core.recording import Recording
 from emla_core.sampling import align
 from emla_core.topics import NAMESPACE, SAMPLE_FRAME, SIGNALS, stamp_to_ns
@@ -48,7 +48,7 @@ class TopicSignal:
 def parse_topics(text, flag='--topics'):
     """{signal: TopicSignal} of a --topics value 'NAME=TOPIC[:FIELD[INDEX]][,...]' (`flag` names it in errors)."""
     specs = {}
-    for name, value in parse_assignments(flag, text, SIGNAL_NAMES).items():
+    for name, value in parse_assignments(flag, text, SIGNAL_NAMES, 'TOPIC[:FIELD[INDEX]]').items():
         topic, _, field = value.partition(':')
         if not topic.startswith('/'):
             raise InputError(f'{flag} {name}={value}: a topic name starts with /')
@@ -63,7 +63,7 @@ def _reader(path):
     from rosbags.highlevel import AnyReader
 
     from .reader import bag_info
-    if Path(path).is_dir():
+    if path_kind(path) == 'dir':
         bag_info(Path(path))  # its metadata and the files it names checked before rosbags opens them
     else:
         regular_file(path, 'bag file', limit=None)
@@ -80,7 +80,8 @@ def suite_layout(path):
     storage with SampleFrames under /emla/. A directory's metadata.yaml that cannot be read is an InputError."""
     from .reader import MCAP_ERRORS, bag_info
     path = Path(path)
-    if path.is_dir():
+    kind = path_kind(path)
+    if kind == 'dir':
         info = bag_info(path)
         return info['storage_identifier'] == 'mcap' and any(
             t['topic_metadata']['name'].startswith(NAMESPACE) and t['topic_metadata']['type'] == SAMPLE_FRAME
@@ -118,7 +119,7 @@ def load_bag(path, topics=None, units=None):
         series, origin, timing = _read(reader, path, specs, connections)
     finally:
         reader.close()
-    given_units = parse_assignments('--units', units, SIGNAL_NAMES)
+    given_units = parse_assignments('--units', units, SIGNAL_NAMES, 'UNIT')
     inputs = {}
     for name, spec in specs.items():
         scale, unit = parse_unit(name, given_units[name]) if name in given_units else (1.0, None)
@@ -136,6 +137,8 @@ def _suite_topics(path, connections):
     InputError that lists the bag's topics and shows the flag to use."""
     specs = {name: TopicSignal(NAMESPACE + name) for name in SIGNALS
              if NAMESPACE + name in connections and connections[NAMESPACE + name].msgtype == SAMPLE_FRAME}
+    if not specs and not any(c.msgcount for c in connections.values()):   # nothing to map
+        raise InputError(f'{path}: {_listing(connections)}; nothing to read')
     if not specs:
         raise InputError(f'{path}: no SampleFrame topics under {NAMESPACE}; {_listing(connections)}; map '
                          f'them with --topics, e.g. --topics voltage=/drive/voltage,current=/drive/current,'
@@ -144,8 +147,13 @@ def _suite_topics(path, connections):
 
 
 def _listing(connections):
-    return 'its topics: ' + ', '.join(f'{c.topic} ({c.msgtype}, {c.msgcount} messages)'
-                                      for c in connections.values())
+    """'its topics: ...' of a bag's connections; that it holds no topics, or no messages on any."""
+    if not connections:
+        return 'the bag holds no topics (and no messages)'
+    listed = ', '.join(f'{c.topic} ({c.msgtype}, {c.msgcount} messages)' for c in connections.values())
+    if not any(c.msgcount for c in connections.values()):
+        return f'the bag holds no messages (its topics, all empty: {listed})'
+    return f'its topics: {listed}'
 
 
 def _read(reader, path, specs, connections):

@@ -7,5 +7,5 @@ __all__ = ['CANDIDATES', 'Candidate', 'library', 'register_candidate']
 
 def library(data, names=None):
     """Instances of the registered candidates (or of `names`) that can act on `data`'s equations."""
-    chosen = [CANDIDATES[n]() for n in (names or CANDIDATES)]
+    chosen = [CANDIDATES[n]() for n in dict.fromkeys(names or CANDIDATES)]   # a name given twice: once
     return [c for c in chosen if set(c.acts_on) & set(data.kinds)]
