@@ -184,7 +184,7 @@ def test_a_launch_removes_the_shared_memory_of_a_killed_node(tmp_path):
     with processes() as start:
         launch = start([EMLA, 'launch', '--duration', '60', '--bag', str(bag)])
         deadline = time.monotonic() + 120
-        while not list(bag.glob('*.mcap')):                 # the recorder has frames: every node runs
+        while not list(tmp_path.glob('.bag.emla-partial/bag/*.mcap')):  # frames: every node runs
             if launch.poll() is not None or time.monotonic() > deadline:
                 launch.kill()
                 pytest.fail(f'the launch ended or stalled before the run began: {launch.communicate()[1]}')

@@ -69,7 +69,7 @@ def test_cli_on_the_example_bag(tmp_path):
         assert (report / figure).stat().st_size > 10_000
         assert f'({figure})' in text
     assert json.loads((report / 'diagnosis.json').read_text()) == result
-    assert not [p for p in report.iterdir() if p.name.startswith('.')]
+    assert [p.name for p in report.iterdir() if p.name.startswith('.')] == ['.emla-output']
 
 
 def test_cli_mechanical_only_csv_to_stdout(tmp_path):

@@ -176,7 +176,7 @@ def test_a_killed_recorder_stops_the_launch_and_leaves_a_readable_bag(tmp_path):
     with processes() as start:
         launch = start([str(VENV_BIN / 'emla'), 'launch', '--duration', '60', '--bag', str(bag)])
         deadline = time.monotonic() + 120
-        while not list(bag.glob('*.mcap'))[1:]:          # the first split is finished, the second begun
+        while not list(tmp_path.glob('.bag.emla-partial/bag/*.mcap'))[1:]:  # a split done, one begun
             if launch.poll() is not None or time.monotonic() > deadline:
                 launch.kill()
                 pytest.fail(f'the launch ended or stalled before a split was finished: {launch.communicate()[1]}')
@@ -190,9 +190,12 @@ def test_a_killed_recorder_stops_the_launch_and_leaves_a_readable_bag(tmp_path):
     lines = [line for line in err.replace('\r', '\n').splitlines() if line.startswith('emla launch:')]
     assert len(lines) == 1 and f'recorder (pid {recorder}) was killed by SIGKILL' in lines[0]
     assert len(pids) == 5 and not any(alive(pid) for pid in pids)
-    with AnyReader([bag], default_typestore=typestore()) as reader:
+    # the recording up to the kill is kept beside the bag's name, which stays for a complete run
+    partial = tmp_path / 'bag.partial'
+    assert f'the recording up to then is in {partial}' in lines[0] and not bag.exists()
+    with AnyReader([partial], default_typestore=typestore()) as reader:
         assert sum(c.msgcount for c in reader.connections) > 0
-    current = read_bag(bag).recording.signals['current']
+    current = read_bag(partial).recording.signals['current']
     assert len(current) > 0 and np.all(np.isfinite(current))
 
 

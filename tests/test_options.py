@@ -156,7 +156,7 @@ def test_a_launch_whose_plant_is_stopped_fails_at_once(tmp_path):
     with processes() as start:
         launch = start([EMLA, 'launch', '--duration', '60', '--bag', str(bag)])
         deadline = time.monotonic() + 120
-        while not list(bag.glob('*.mcap')):          # the graph runs
+        while not list(tmp_path.glob('.bag.emla-partial/bag/*.mcap')):          # the graph runs
             assert launch.poll() is None and time.monotonic() < deadline, launch.communicate()[1]
             time.sleep(0.1)
         plant = next(pid for pid, args in children(launch.pid).items() if args[2:4] == ['run', 'plant'])

@@ -8,6 +8,7 @@ for the start-up of the connections) to its last step; cpu_per_simulated_second 
 (and all together, 'total') spent over the same span per simulated second; wall_time is the whole launch,
 start-up and stop included.
 """
+import os
 import signal
 import sys
 import time
@@ -16,7 +17,8 @@ from pathlib import Path
 from emla_core.parameters import FAMILIES
 
 from . import scenario_args, staging
-from .output import BAG, check_outputs, emit_json, write_output
+from .output import BAG, check_outputs, emit_json, publish
+from .staging import mark
 
 HELP = 'Run the plant, sensor, identifier and controller nodes as a ROS 2 graph and record a bag.'
 MAX_DURATION = 3600.0  # s: an hour of the graph (about as long in wall time)
@@ -61,6 +63,20 @@ def _interrupt(signum, frame):
     raise KeyboardInterrupt
 
 
+def _keep_partial(reservation, bag):
+    """Where the recording of a launch that failed or was stopped now is: never under the name of a complete bag,
+    but beside it as <bag>.partial (where that name is free), marked as emla's, readable up to its last split."""
+    partial = bag.with_name(f'{bag.name}.partial')
+    if not (reservation.output / 'metadata.yaml').is_file() or os.path.lexists(partial):
+        return f'nothing was recorded to {bag}'
+    try:
+        mark(reservation.output, BAG)
+        os.rename(reservation.output, partial)
+    except OSError:
+        return f'nothing was recorded to {bag}'
+    return f'the recording up to then is in {partial} (not {bag}: that name is kept for a complete run)'
+
+
 def run(args):
     from emla_bench.node_parameters import scenario_parameters
     from emla_cli.launcher import LaunchError, launch
@@ -82,10 +98,21 @@ def run(args):
 
     signal.signal(signal.SIGTERM, _interrupt)      # stop the graph as on Ctrl-C
     try:
-        write_output(bag, record, BAG)
-    except LaunchError as error:
-        print(f'emla launch: {error}; nothing was recorded to {bag}', file=sys.stderr)
-        return 1
+        reservation.clear()
+        record(reservation.output)
+        mark(reservation.output, BAG)
+    except (LaunchError, KeyboardInterrupt) as error:
+        stopped = isinstance(error, KeyboardInterrupt)
+        print(f'emla launch: {"interrupted" if stopped else error}; {_keep_partial(reservation, bag)}',
+              file=sys.stderr)
+        return 130 if stopped else 1
+    except OSError as exc:
+        reservation.clear()
+        raise staging.cannot_write(bag, exc) from None
+    except BaseException:
+        reservation.clear()
+        raise
+    publish([reservation])
     emit_json(summary, args.json)
     print(f'emla launch: {duration:g} s simulated in {summary["wall_time"]:.1f} s (real-time factor '
           f'{summary["realtime_factor"]}); bag {bag}', file=sys.stderr)
