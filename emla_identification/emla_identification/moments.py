@@ -1,6 +1,11 @@
 """Lagged moments of regression rows (and instruments) kept beside the least-squares state: what the
 sensor-noise model (noise.py) needs to give a weighted estimate its uncertainty, and the per-regression
 statistics physical.py turns into physical parameters.
+
+An estimate cannot be computed from statistics that overflowed (a sample of 1e100 squares to 1e200 in the
+moments, and their products to inf) or whose information matrix is singular to working precision (one of 1e50
+beside samples of order 1: its squares swamp every other's): Statistics.check() and Statistics.information say
+so with an UnestimableError, the one place every estimate from them passes through (online.py).
 """
 import functools
 from dataclasses import dataclass
@@ -9,6 +14,17 @@ import numba
 import numpy as np
 
 from .regressors import HISTORY
+
+# A matrix whose condition number (scaled to a unit diagonal, which takes the units out) exceeds 1/eps has no
+# correct digit in its inverse. Real and simulated records stay below 1e13 (an idle actuator with a memory of
+# 200 samples, the worst seen: 1.3e12); a frame of 1e50 among samples of order 1 gives 1e19 to inf.
+SINGULAR = 1.0 / np.finfo(float).eps
+
+
+class UnestimableError(ValueError):
+    """An estimate cannot be computed from these statistics: an overflow, or a non-finite or singular
+    information matrix (an input fault where it happens online: the identifier node reports it and goes back to
+    the last statistics that gave one)."""
 
 
 class LagMoments:
@@ -107,10 +123,36 @@ class Statistics:
     instrument_moments: np.ndarray = None
     effects: tuple = ()
 
+    def check(self):
+        """UnestimableError if no estimate can be computed from these statistics: a non-finite number (an overflow
+        of the squared sums) or an information matrix singular to working precision (SINGULAR)."""
+        arrays = {'coefficients': self.theta, 'covariance': self.covariance, 'moments': self.lags,
+                  'weight': self.weight, 'instrument moments': self.instrument_moments}
+        for name, values in arrays.items():
+            if values is not None and not np.all(np.isfinite(values)):
+                raise UnestimableError(f'the {name} of the regression are not finite (an overflow)')
+        scale = np.sqrt(np.abs(np.diag(self.covariance)))
+        with np.errstate(all='ignore'):
+            condition = np.linalg.cond(self.covariance / np.outer(scale, scale)) if np.all(scale > 0) else np.inf
+        if not condition <= SINGULAR:
+            raise UnestimableError(f'the information matrix is singular to working precision (condition number '
+                                   f'{condition:.3g})')
+        return self
+
     @functools.cached_property
     def information(self):
-        """The normal equations' matrix: sum w phi phi' (least squares) or sum w zeta phi' (instruments)."""
-        return np.linalg.inv(self.covariance)
+        """The normal equations' matrix: sum w phi phi' (least squares) or sum w zeta phi' (instruments); an
+        UnestimableError where it cannot be computed (a singular or non-finite covariance, or an overflow)."""
+        if not np.all(np.isfinite(self.covariance)):
+            raise UnestimableError('the covariance of the regression is not finite (an overflow)')
+        try:
+            with np.errstate(all='ignore'):
+                information = np.linalg.inv(self.covariance)
+        except np.linalg.LinAlgError as error:
+            raise UnestimableError(f'the information matrix cannot be computed: {error}') from None
+        if not np.all(np.isfinite(information)):
+            raise UnestimableError('the information matrix is not finite (an overflow)')
+        return information
 
     def restrict(self, T):
         """theta_r solving the same normal equations with coefficients T' theta_r (T's rows combine them)."""

@@ -22,6 +22,7 @@ from .reader import (
     data_cost,
     read_bag,
     reporting_skipped,
+    short_signals,
     unreadable,
     warn_cost,
 )
@@ -64,9 +65,11 @@ def iter_chunks(path, signals=None, chunk_samples=1 << 14):
             for frames in _decoded_chunks(file, slot_of_channel, len(names), skipped.append):
                 yield from aligner.add(*frames)
         yield from aligner.finish()
+    spans = {n: (aligner.start[n], aligner.end[n]) for n in aligner.names}
     if skipped:
-        warn_cost(data_cost(path, {n: (aligner.start[n], aligner.end[n]) for n in aligner.names}, aligner.period,
-                            [n for n in names if n not in aligner.start]))
+        warn_cost(data_cost(path, spans, aligner.period, [n for n in names if n not in aligner.start]))
+    else:   # a signal that begins late or ends early, as read_bag warns of it
+        warn_cost(short_signals(path, spans, aligner.period, aligner.frame))
 
 
 class _Aligner:
@@ -78,6 +81,7 @@ class _Aligner:
         self.period = None
         self.start, self.end = {}, {}                   # ns: first stamp, stamp the next frame must have
         self.received = dict.fromkeys(names, 0)          # samples
+        self.frame = 1                                   # samples of the longest frame
         self.queues = {name: _Queue() for name in wanted}
         self.first = None                                # the shared start, once every signal has begun
         self.offsets = {}                                # samples of each signal before it
@@ -117,6 +121,7 @@ class _Aligner:
         self.start.setdefault(name, int(stamps[0]))
         self.end[name] = int(stamps[-1] + durations[-1])
         self.received[name] += int(lengths.sum())
+        self.frame = max(self.frame, int(lengths.max()))
 
     def _parts(self, final):
         if self.first is None:

@@ -4,7 +4,9 @@ iter_serialized, bag_topics.
 A file with a chunk index is read chunk by chunk, and a corrupt chunk (its record, decompression or CRC fails)
 is skipped and described (CorruptChunk: its file, number and the time span of its messages). read_bag and
 iter_chunks name it in the error its loss may cause (a gap in a signal, ...), else in a warning once done
-(logging, one line), followed by one that names the measured data it cost (data_cost). A file without a chunk
+(logging, one line), followed by one that names the measured data it cost (data_cost). A signal whose samples
+begin later or end earlier than the others' by more than a frame (its recorder stopped early, a topic's messages
+cut off) is warned of in the same way (short_signals): the record is the span all signals share. A file without a chunk
 index is read straight through, and any damage refuses it. A bag's metadata.yaml is checked before any file it
 names is opened (bag_info): hostile metadata, files outside the bag, devices and FIFOs are refused in one line.
 """
@@ -124,6 +126,47 @@ def data_cost(path, spans, period, absent=()):
         return None
     return (f'{path}: the skipped chunks cost measured data: {"; ".join(losses)} (lost: not read; cut: read, but '
             f'outside the time span all signals share)')
+
+
+def short_signals(path, spans, period, frame=1):
+    """The warning (one line) of the signals whose samples begin later or end earlier than another signal's by
+    more than `frame` samples (a frame: a recorder stopped between the topics of one period costs less), which
+    cuts the record to the time span all share; None if none does.
+
+    Parameters
+    ----------
+    path : Path
+        The bag, to name.
+    spans : dict
+        {signal: (first stamp, end) in ns} of each signal's samples as read.
+    period : float
+        The sample period in s.
+    frame : int, optional
+        Samples a signal may lack at either end without a warning (the longest frame read).
+
+    Returns
+    -------
+    str or None
+        Which topic begins late or ends early, where and by how many samples, and how much of the record (from
+        the first signal's start to the last one's end) is therefore not used.
+    """
+    first, last = max(s for s, _ in spans.values()), min(e for _, e in spans.values())
+    low, high = min(s for s, _ in spans.values()), max(e for _, e in spans.values())
+    notes = []
+    for name, (start, end) in sorted(spans.items()):
+        late, early = round((start - low) * 1e-9 / period), round((high - end) * 1e-9 / period)
+        if late > frame:
+            notes.append(f'{NAMESPACE}{name} begins at t = {start * 1e-9:.6f} s, {late} samples after the first '
+                         f'signal (t = {low * 1e-9:.6f} s)')
+        if early > frame:
+            notes.append(f'{NAMESPACE}{name} ends at t = {end * 1e-9:.6f} s, {early} samples before the last '
+                         f'signal (t = {high * 1e-9:.6f} s)')
+    if not notes:
+        return None
+    total, used = round((high - low) * 1e-9 / period), max(0, round((last - first) * 1e-9 / period))
+    return (f'{path}: {"; ".join(notes)}: the record is cut to the {used} samples all signals share (t = '
+            f'{first * 1e-9:.6f} to {last * 1e-9:.6f} s); {total - used} of its {total} samples '
+            f'({100 * (total - used) / total:.3g} %) are not used')
 
 
 def one_line(exc):
@@ -449,12 +492,15 @@ def read_bag(path):
                 effects.append((stamp_to_ns(msg.header.stamp) * 1e-9, _finite(effect_values(msg)),
                                 _finite(dict(zip(msg.names, (float(s) for s in msg.std))))))
         if not frames:
-            raise InputError(f'{path}: no SampleFrame topics under {NAMESPACE}')
+            raise InputError(f'{path}: no SampleFrame messages under {NAMESPACE}: the bag holds no samples')
         recording, spans = _assemble(frames, path, custom)
     if skipped:
         absent = [topic[len(NAMESPACE):] for topic, msgtype in bag_topics(path).items()
                   if msgtype == SAMPLE_FRAME and topic.startswith(NAMESPACE) and topic[len(NAMESPACE):] not in frames]
         warn_cost(data_cost(path, spans, recording.sample_period, absent))
+    else:   # (the skipped chunks' cost names any cut too)
+        warn_cost(short_signals(path, spans, recording.sample_period,
+                                max(len(data) for fs in frames.values() for _, _, data in fs)))
     for series in (estimates, truth, effects):
         series.sort(key=lambda e: e[0])
     return BagContents(recording=recording, estimates=estimates, truth=truth, metadata=custom, effects=effects)

@@ -1,5 +1,6 @@
-"""Input faults of a node (a lost, empty, non-finite or wrong-period frame, a stamp that jumps back):
-counted, logged and published on /diagnostics."""
+"""Input faults of a node (a lost, empty, non-finite or wrong-period frame, a stamp that jumps back; the
+identifier's 'unestimable': frames that leave no estimate computable, e.g. an overflow): counted, logged and
+published on /diagnostics."""
 import collections
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue

@@ -11,9 +11,13 @@ estimated from the voltage and current, without a position input, on /emla/posit
 at every multiple of `publish_period` that ends a control period, stamped with the end of the data used, and a
 final estimate at the end time /emla/plant/done announces (see emla_core.nodes); /diagnostics with the
 first estimate, then every second of sample time, and with the final one. Bad frames (see emla_core.nodes) are
-reported and skipped. Non-finite samples: the grey-box estimator gets only finite samples, and a gap() wherever
-some are missing; the ARX one gets them in place and skips the regression rows they are in (as identify_arx
-does), so its last model equals `emla identify --model arx` on the same data.
+reported and skipped. An estimate that cannot be computed (an overflow, a singular or non-finite information
+matrix: one frame of 1e50 among samples of order 1) is an input fault too ('unestimable', reported as the others):
+the grey box goes back to the statistics of the last estimate it published (the frames since, which poisoned
+them, forgotten: at most a publish period's; a second failure without a good estimate between restarts it), the
+ARX estimator restarts (a solenoid's cannot: kept). Non-finite samples: the grey-box estimator gets only finite
+samples, and a gap() wherever some are missing; the ARX one gets them in place and skips the regression rows
+they are in (as identify_arx does), so its last model equals `emla identify --model arx` on the same data.
 
 The samples are counted (SampleCounts): received, used by the estimator, lost (gaps in an input's stamps) and
 skipped (out-of-order or duplicate stamps). The counts are in each /diagnostics status (WARN when any were lost
@@ -47,6 +51,7 @@ from emla_core.nodes.qos import DIAGNOSTICS_QOS, FRAME_QOS, LATCHED_QOS
 from emla_core.nodes.run import run
 from emla_core.nodes.standard_topics import StandardTopics
 from emla_identification.arx import DEFAULT_ORDERS, DEFAULT_SIGNALS, ArxEstimator
+from emla_identification.moments import UnestimableError
 from emla_identification.online import OnlineIdentifier
 from emla_identification.physical import MODEL_PARAMETERS
 from emla_msgs.msg import ArxModel, EffectEstimate, ParameterEstimate, SampleFrame
@@ -98,6 +103,9 @@ SPECS = [
 
 
 DIAGNOSTICS_STEP = 1_000_000_000  # ns of sample time between /diagnostics statuses (ROS's usual 1 Hz)
+# What computing an estimate raises where the data make it impossible (the grey box: UnestimableError alone;
+# the ARX model's poles of a non-finite theta: LinAlgError, a ValueError)
+UNESTIMABLE = (UnestimableError, np.linalg.LinAlgError, ArithmeticError)
 
 
 class SampleCounts:
@@ -295,7 +303,7 @@ class IdentifierNode(EmlaNode):
         self.position_estimates = self.create_publisher(SampleFrame, topics.POSITION_ESTIMATE_TOPIC, FRAME_QOS) \
             if self.solenoid and p.position_observer else None
         self.diagnostics = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS_TOPIC, DIAGNOSTICS_QOS)
-        faults = SampleFaults(self)
+        self.faults = faults = SampleFaults(self)
         together = p.measured_frames and not self.inputs
         self.measured = AlignedSamples(
             self, {name: spec.describe() for name, spec in self.inputs.items()}
@@ -372,10 +380,47 @@ class IdentifierNode(EmlaNode):
             self.prediction_error = float(finite[-1])
 
     def publish(self):
-        self.status = self.publish_arx() if self.arx else self.publish_resistance() if self.solenoid \
-            else self.publish_parameters()
+        """Publish the estimate now and its status; one that cannot be computed is an input fault: recover(), then
+        the estimate of what is left (if that fails too, the status says so and nothing is published)."""
+        try:
+            self.status = self.publish_estimate()
+        except UNESTIMABLE as error:
+            self.recover(error)
+            try:
+                self.status = self.publish_estimate()
+            except UNESTIMABLE as again:
+                self.status = self.no_estimate(again)
+        else:  # (not after recover(): the state it went back to, whose checkpoint it used up)
+            if hasattr(self.identifier, 'checkpoint'):
+                self.identifier.checkpoint()  # the statistics the next failure goes back to
         self.published = self.covered
         self.diagnose()
+
+    def publish_estimate(self):
+        return self.publish_arx() if self.arx else self.publish_resistance() if self.solenoid \
+            else self.publish_parameters()
+
+    def recover(self, error):
+        """After an estimate that cannot be computed: the grey box back to its last checkpoint (the statistics of
+        the last estimate published, once; a second failure without a good estimate between resets it), the ARX
+        estimator reset (a solenoid's estimator has neither: kept). The samples forgotten are no longer used."""
+        at = f'the estimate at {self.covered / 1e9:.6g} s cannot be computed ({error})'
+        if hasattr(self.identifier, 'restore'):
+            forgotten = self.identifier.restore()
+            what = 'reset' if not self.identifier.samples else \
+                f'back to the estimate of its first {self.identifier.samples} samples'
+        elif hasattr(self.identifier, 'reset'):
+            forgotten, what = self.counts.used, 'reset'
+            self.identifier.reset()
+        else:
+            forgotten, what = 0, 'kept (it cannot go back)'
+        self.counts.use(-forgotten)
+        self.faults.report('unestimable', f'{at}: the estimator {what}, {forgotten} samples since forgotten')
+
+    def no_estimate(self, error):
+        """The diagnostic status (as a function) for an instant without an estimate."""
+        return lambda: DiagnosticStatus(level=DiagnosticStatus.WARN, name='emla/identifier', hardware_id='emla',
+                                        message=f'no estimate: {error}', values=[])
 
     def diagnose(self):
         """The status of the latest estimate on /diagnostics with the first, then every DIAGNOSTICS_STEP of
