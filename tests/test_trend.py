@@ -6,7 +6,6 @@ import json
 import os
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -15,6 +14,7 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 from fleet_data import fleet_truth, write_fleet
+from loopback import free_port, wait_for_port
 from ros_isolation import VENV_BIN
 
 from emla_identification.fleet import detect_changes, read_table, trend
@@ -58,7 +58,7 @@ def cluster(tmp_path_factory):
     """A real dask.distributed cluster on localhost: `dask scheduler` and two `dask worker` processes (no nanny,
     one thread each), random free ports; (address, worker processes); all killed at the end."""
     folder = tmp_path_factory.mktemp('cluster')
-    port = _free_port()
+    port = free_port()
     address = f'tcp://127.0.0.1:{port}'
     dask = str(VENV_BIN / 'dask')
     log = open(folder / 'cluster.log', 'w')
@@ -66,7 +66,7 @@ def cluster(tmp_path_factory):
                                    '--idle-timeout', '300'], stdout=log, stderr=log, env=WORKER_ENV,
                                   start_new_session=True)]
     try:
-        _wait_for_port(port, timeout=30)
+        wait_for_port(port, timeout=30)
         workers = [subprocess.Popen([dask, 'worker', address, '--host', '127.0.0.1', '--nthreads', '1', '--no-nanny',
                                      '--no-dashboard', '--death-timeout', '60'], stdout=log, stderr=log,
                                     env=WORKER_ENV, start_new_session=True) for _ in range(2)]
@@ -86,22 +86,6 @@ def cluster(tmp_path_factory):
                 os.killpg(process.pid, signal.SIGKILL)
                 process.wait(timeout=10)
         log.close()
-
-
-def _free_port():
-    with socket.socket() as s:
-        s.bind(('127.0.0.1', 0))
-        return s.getsockname()[1]
-
-
-def _wait_for_port(port, timeout):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        with socket.socket() as s:
-            if s.connect_ex(('127.0.0.1', port)) == 0:
-                return
-        time.sleep(0.1)
-    raise TimeoutError(f'no scheduler on port {port} after {timeout} s')
 
 
 def _parameters(result):
@@ -288,7 +272,7 @@ def test_bad_input_is_one_line_and_exit_2(fleet, tmp_path, args, name):
 def test_an_unreachable_scheduler_is_one_line(fleet):
     directory, _, _ = fleet
     started = time.monotonic()
-    out = emla('trend', directory, '--scheduler', f'tcp://127.0.0.1:{_free_port()}', timeout=120)
+    out = emla('trend', directory, '--scheduler', f'tcp://127.0.0.1:{free_port()}', timeout=120)
     assert_one_line_error(out, 'cannot connect')
     assert time.monotonic() - started < 100
 

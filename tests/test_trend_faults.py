@@ -19,6 +19,7 @@ import time
 from contextlib import contextmanager
 
 import pytest
+from loopback import free_port, wait_for_port
 from ros_isolation import REPO, VENV_BIN
 
 from emla_identification.fleet import read_table
@@ -85,27 +86,11 @@ def records(tmp_path):
     return runs
 
 
-def _free_port():
-    with socket.socket() as s:
-        s.bind(('127.0.0.1', 0))
-        return s.getsockname()[1]
-
-
-def _wait_for_port(port, timeout):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        with socket.socket() as s:
-            if s.connect_ex(('127.0.0.1', port)) == 0:
-                return
-        time.sleep(0.1)
-    raise TimeoutError(f'no scheduler on port {port} after {timeout} s')
-
-
 @contextmanager
 def dask_cluster(folder):
     """`dask scheduler` and one `dask worker` (no nanny: a killed worker stays dead) on 127.0.0.1; (address,
     scheduler process, worker process); both killed at the end, whatever happened."""
-    port = _free_port()
+    port = free_port()
     address = f'tcp://127.0.0.1:{port}'
     dask = str(VENV_BIN / 'dask')
     log = open(folder / 'cluster.log', 'w')
@@ -114,7 +99,7 @@ def dask_cluster(folder):
         processes.append(subprocess.Popen([dask, 'scheduler', '--host', '127.0.0.1', '--port', str(port),
                                            '--no-dashboard', '--idle-timeout', '120'], stdout=log, stderr=log,
                                           env=ENV, start_new_session=True))
-        _wait_for_port(port, timeout=30)
+        wait_for_port(port, timeout=30)
         processes.append(subprocess.Popen([dask, 'worker', address, '--host', '127.0.0.1', '--nthreads', '1',
                                            '--no-nanny', '--no-dashboard', '--death-timeout', '30'], stdout=log,
                                           stderr=log, env=ENV, start_new_session=True))
