@@ -11,7 +11,7 @@ help:
 	@echo "make lint   - the lint gate alone: ruff check (ruff.toml)"
 	@echo "make demo   - run the default scenario end to end (sets up first)"
 	@echo "make bench  - measure the hot paths; writes bench-results.json (sets up first)"
-	@echo "make sweep  - the slow discrepancy tests, the commands fuzzed with 20000 mutated inputs (tests/test_fuzz.py; FUZZ_SEED=N for another seed), then make discrepancy-sweep"
+	@echo "make sweep  - the slow tests (discrepancy cases, 50 SIGKILLs of the writing commands), the commands fuzzed with 20000 mutated inputs (tests/test_fuzz.py; FUZZ_SEED=N for another seed), then make discrepancy-sweep"
 	@echo "make discrepancy-sweep - the discrepancy workflow on 240 independent records (SWEEP_CASES, SWEEP_WORKERS); writes docs/discrepancy-sweep.md"
 	@echo "make clean  - remove .venv/ and build outputs"
 
