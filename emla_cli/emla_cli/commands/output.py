@@ -34,7 +34,7 @@ def json_text(data):
     return json.dumps(finite(data), indent=2) + '\n'
 
 
-# The kinds of directory output (staging.KINDS): --force replaces a directory only if emla wrote it as this kind.
+# The kinds of directory output (staging.OUTPUT_KINDS): --force replaces a directory only if emla wrote it as this kind.
 BAG, REPORT, FLEET = 'bag', 'report', 'fleet'
 RELATIONS = {'same': 'is', 'inside': 'is inside', 'holds': 'contains'}
 KINDS = {stat.S_IFREG: 'a regular file', stat.S_IFDIR: 'a directory', stat.S_IFCHR: 'a device',

@@ -36,7 +36,7 @@ SUFFIX = '.emla-partial'
 OWNER = 'owner.json'      # in a staging directory: the writer's pid and the target's name
 PREVIOUS = 'previous'     # in a staging directory: the previous output, moved aside (no atomic exchange)
 NAME_MAX = 255            # bytes of one path component (Linux, most filesystems)
-KINDS = {'bag': 'a bag', 'report': 'a discrepancy report', 'fleet': 'a fleet of bags'}
+OUTPUT_KINDS = {'bag': 'a bag', 'report': 'a discrepancy report', 'fleet': 'a fleet of bags'}   # marker kinds
 SHOWN = 3                 # foreign files named in a refusal
 
 
@@ -162,9 +162,9 @@ def sweep(directory):
         entries = list(os.scandir(directory))
     except OSError:
         return
+    own = {r.staging for r in _held.values()}
     for entry in entries:
-        if not (entry.name.startswith('.') and entry.name.endswith(SUFFIX)) or Path(entry.path) in \
-                {r.staging for r in _held.values()}:
+        if not (entry.name.startswith('.') and entry.name.endswith(SUFFIX)) or Path(entry.path) in own:
             continue
         staging = Path(entry.path)
         try:
@@ -210,7 +210,8 @@ def replaceable(flag, path, kind):
         raise InputError(f'{flag} {path}: --force replaces only an output emla wrote ({MARKER} in it), and this '
                          f'directory has none; move it or choose another path') from None
     if found != kind:
-        raise InputError(f'{flag} {path}: holds {KINDS.get(found, found)}, not {KINDS[kind]}; choose another path')
+        raise InputError(f'{flag} {path}: holds {OUTPUT_KINDS.get(found, found)}, not {OUTPUT_KINDS[kind]}; '
+                         f'choose another path')
     foreign = sorted(str(p.relative_to(path)) for p in path.rglob('*')
                      if not p.is_dir() and p.name != MARKER and str(p.relative_to(path)) not in written)
     if foreign:
