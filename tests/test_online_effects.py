@@ -58,10 +58,12 @@ def test_with_forgetting_one_the_estimate_is_the_batch_solution_with_the_added_c
     online = feed(OnlineIdentifier(recording.sample_period, effects=EFFECTS), recording, frame=333)
     stream = RowStream(('mechanical',), recording.sample_period)
     phi, y, zeta = stream.rows(recording.signals)['mechanical']
-    columns, skipped = EffectColumns(columns_for(EFFECTS, 1.0), recording.sample_period).rows(
-        recording.signals['position'])
-    # instrumental variables: the columns are their own instruments
-    phi, zeta, y = np.hstack((phi, columns))[~skipped], np.hstack((zeta, columns))[~skipped], y[~skipped]
+    extra, skipped = EffectColumns(columns_for(EFFECTS, 1.0), recording.sample_period).rows(
+        recording.signals['position'], ('mechanical',))
+    columns, instruments = extra['mechanical']
+    # instrumental variables: the friction's column is its own instrument, the spring's x_k-2
+    assert np.array_equal(instruments[:, 0], columns[:, 0]) and EFFECTS[1] == 'return_spring'
+    phi, zeta, y = np.hstack((phi, columns))[~skipped], np.hstack((zeta, instruments))[~skipped], y[~skipped]
     # the recursion's prior (theta 0, covariance 1e6 I) is the ridge term 1e-6 I of the normal equations
     batch = np.linalg.solve(zeta.T @ phi + 1e-6 * np.eye(phi.shape[1]), zeta.T @ y)
     assert online._rls['mechanical'].theta == pytest.approx(batch, rel=1e-6)

@@ -100,8 +100,9 @@ def test_compensating_the_friction_and_spring_estimated_online_halves_the_tracki
     for name, truth in (('coulomb_force', 1.0), ('spring_stiffness', 1500.0)):
         value, std = online[name], online[f'{name}_std']
         assert value == pytest.approx(truth, rel=0.1), name
-        # within 3 sigma, sigma under 5 % (it carries the fit's misfit: 1 s of closed loop, the noise fed back)
-        assert abs(value - truth) < 3 * std and 0.0 < std < 0.05 * truth, name
+        # within 3 sigma, sigma under 6 % (it carries the fit's misfit: 1 s of closed loop, the noise fed back; the
+        # spring's column has x_k-2 for its instrument, unbiased where x_k itself would bias k)
+        assert abs(value - truth) < 3 * std and 0.0 < std < 0.06 * truth, name
     assert result.to_json()['compensated_effects'] == result.compensated_effects
     assert 'adaptive_nominal_model' not in result.compensated_effects
 

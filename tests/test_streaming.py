@@ -198,17 +198,32 @@ def test_bag_parts_are_read_bags_signals(tmp_path, split_size):
     np.testing.assert_array_equal(np.concatenate([p.signals['current'] for p in subset]), whole.signals['current'])
 
 
-def test_bag_parts_report_gaps_as_read_bag_does(tmp_path):
-    bag = tmp_path / 'gap'
-    with BagWriter(bag) as writer:
+def current_frames(path, starts):
+    """A bag of /emla/current frames of 10 samples (value: the sample's number) at the samples `starts` (0.1 ms)."""
+    with BagWriter(path) as writer:
         writer.add_topic('/emla/current', SAMPLE_FRAME)
-        for k in (0, 1, 3):
-            writer.write_message('/emla/current', k * 10**6, frame_message(k * 10**6, 1e-4, np.zeros(10)))
+        for k in starts:
+            writer.write_message('/emla/current', k * 10**5, frame_message(k * 10**5, 1e-4, np.arange(k, k + 10.0)))
+    return path
+
+
+def test_bag_parts_have_read_bags_gaps_and_refuse_its_overlaps(tmp_path):
+    """A missing frame is a gap of the record in both readers (no part spans it); a frame that begins inside the
+    one before is refused by both alike."""
+    bag = current_frames(tmp_path / 'gap', (0, 10, 30))
+    whole = read_bag(bag).recording
+    assert whole.gaps == ((20, 10),)
+    np.testing.assert_array_equal(whole.time, np.r_[0:20, 30:40] * 1e-4)
+    got = list(iter_chunks(bag, chunk_samples=7))
+    assert [len(p) for p in got] == [7, 7, 6, 7, 3]
+    assert [p.start_time for p in got] == pytest.approx(np.array([0, 7, 14, 30, 37]) * 1e-4)
+    np.testing.assert_array_equal(np.concatenate([p.signals['current'] for p in got]), whole.signals['current'])
+    overlap = current_frames(tmp_path / 'overlap', (0, 10, 15))
     with pytest.raises(InputError) as whole:
-        read_bag(bag)
+        read_bag(overlap)
     with pytest.raises(InputError) as streamed:
-        list(iter_chunks(bag))
-    assert str(streamed.value) == str(whole.value) and 'gap or overlap at t = 0.003000 s' in str(whole.value)
+        list(iter_chunks(overlap))
+    assert str(streamed.value) == str(whole.value) and 'has an overlap at t = 0.001500 s' in str(whole.value)
 
 
 def test_a_bare_mcap_without_chunks_is_read_whole(tmp_path):

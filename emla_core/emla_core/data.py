@@ -6,7 +6,16 @@ current, position, velocity, force) by `columns` ('NAME=SOURCE,...'), else by th
 short ones: time, u, i, x, v, f); units come from `units` ('NAME=UNIT,...'), else from the header
 ('x_mm', 'x [mm]', 'x (mm)'), else SI. What was understood is kept in `recording.inputs` and how time was
 read in `recording.sampling`, for the commands' JSON. Values beyond MAX_MAGNITUDE in SI are refused.
+
+A window `start`/`end` (s, on the record's own time axis) keeps the samples from `start` on, before `end`: of a
+CSV or MAT file the rows whose time is in it, as if the file had been cut there, before anything else is read
+from them. A row that repeats the one before exactly (time and values: a logger that wrote it twice) is dropped
+with a warning (in `recording.sampling['warnings']`); a time repeated with other values is refused. Samples
+missing (emla_core.sampling) leave the record in segments (Recording.gaps), which `load` returns only when
+asked to (`gaps=True`, for what identifies across them); else it refuses the record, naming the part to take.
 """
+import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -14,7 +23,7 @@ import numpy as np
 from emla_core.errors import InputError
 from emla_core.files import path_kind
 from emla_core.recording import Recording
-from emla_core.sampling import steady_period
+from emla_core.sampling import gap_time, row_number, steady_period
 from emla_core.units import SIGNAL_NAMES, SIGNAL_UNITS, parse_assignments, parse_unit, split_header
 
 # Column names (without their unit) taken for a signal when no --columns says otherwise; case is ignored.
@@ -30,7 +39,8 @@ MAX_MAGNITUDE = 1e100
 
 
 def load(path: Path | str, *, columns: str | None = None, units: str | None = None, topics: str | None = None,
-         sample_period: float | None = None, delimiter: str | None = None, decimal: str | None = None) -> Recording:
+         sample_period: float | None = None, delimiter: str | None = None, decimal: str | None = None,
+         start: float | None = None, end: float | None = None, gaps: bool = False) -> Recording:
     """A Recording of the data in a CSV file, MATLAB file, rosbag2 directory or .mcap file.
 
     Parameters
@@ -50,6 +60,11 @@ def load(path: Path | str, *, columns: str | None = None, units: str | None = No
     delimiter, decimal : str, optional
         Delimiter (',', ';', '|', 'tab') and decimal mark ('.', ',') of a CSV file, where the guess from its
         header and first rows is not enough.
+    start, end : float, optional
+        The window of the record to read (s, on its own time axis): the samples from `start` on, before `end`.
+    gaps : bool, optional
+        Whether a record with missing samples is returned in segments (Recording.gaps), for a caller that takes
+        them (greybox.identify); by default it is refused.
 
     Returns
     -------
@@ -59,9 +74,19 @@ def load(path: Path | str, *, columns: str | None = None, units: str | None = No
     Raises
     ------
     InputError
-        The file is missing or unreadable, or its data unusable (the message names the file and problem).
+        The file is missing or unreadable, its data unusable, or the window holds none of them (the message
+        names the file and problem).
     """
     path = Path(path)
+    _check_window(start, end)
+    recording = _read(path, columns, units, topics, sample_period, delimiter, decimal, start, end)
+    if recording.gaps and not gaps:
+        raise _gapped(recording)
+    return recording
+
+
+def _read(path, columns, units, topics, sample_period, delimiter, decimal, start, end):
+    """load's Recording, gaps and all."""
     kind = path_kind(path)
     if kind is None:
         raise InputError(f'{path}: no such file or directory')
@@ -79,38 +104,46 @@ def load(path: Path | str, *, columns: str | None = None, units: str | None = No
         recording = load_bag(path, topics, units)
         for name, values in recording.signals.items():
             _in_range(values, 1.0, str(path), f'signal {name}', 'sample', 0)
-        return recording
+        return window(recording, start, end)
     if mat:
         from emla_core.tables import mat_vectors, read_mat_columns
         vectors = mat_vectors(path)
         columns, units, period, given = _mat_period(path, vectors, columns, units, sample_period)
         chosen = _choose(vectors, columns, period, str(path))
         recording = from_columns(read_mat_columns(path, chosen.values()), str(path), columns=columns, units=units,
-                                 sample_period=period, row='element', first=1)
+                                 sample_period=period, row='element', first=1, start=start, end=end)
         if given is not None:
             recording.inputs['t'] = given['input']
             recording.sampling['how'] = given['how']
         return recording
     return read_csv(path, columns=columns, units=units, sample_period=sample_period, delimiter=delimiter,
-                    decimal=decimal)
+                    decimal=decimal, start=start, end=end, gaps=True)
 
 
 def read_csv(path: Path | str, *, columns: str | None = None, units: str | None = None,
-             sample_period: float | None = None, delimiter: str | None = None, decimal: str | None = None) -> Recording:
-    """A Recording from a CSV file with a header row (see `load` for the mapping, units and CSV dialect)."""
+             sample_period: float | None = None, delimiter: str | None = None, decimal: str | None = None,
+             start: float | None = None, end: float | None = None, gaps: bool = False) -> Recording:
+    """A Recording from a CSV file with a header row (see `load` for the mapping, units, CSV dialect, window and
+    gaps)."""
     from emla_core.tables import read_csv_columns
-    return from_columns(read_csv_columns(path, delimiter, decimal), str(path), columns=columns, units=units,
-                        sample_period=sample_period, row='data row', first=1)
+    recording = from_columns(read_csv_columns(path, delimiter, decimal), str(path), columns=columns, units=units,
+                             sample_period=sample_period, row='data row', first=1, start=start, end=end)
+    if recording.gaps and not gaps:
+        raise _gapped(recording)
+    return recording
 
 
-def from_columns(table, source, *, columns=None, units=None, sample_period=None, row='sample', first=0):
-    """A Recording of named columns {name: array} (see `load`); `row`/`first` name places in messages."""
+def from_columns(table, source, *, columns=None, units=None, sample_period=None, row='sample', first=0, start=None,
+                 end=None):
+    """A Recording of named columns {name: array} (see `load`: its window `start`/`end` cuts the rows, and rows
+    that repeat the one before are dropped); `row`/`first` name places in messages (`first`: the number of the
+    first row). It has gaps (Recording.gaps) where the time skips samples."""
     chosen = _choose(table, columns, sample_period, source)
     given_units = parse_assignments('--units', units, ('t', *SIGNAL_NAMES), 'UNIT')
     unmapped = sorted(set(given_units) - set(chosen))
     if unmapped:
         raise InputError(f'{source}: --units names {", ".join(unmapped)}, which no column holds')
-    inputs, values = {}, {}
+    inputs, scales = {}, {}
     for signal, column in chosen.items():
         header_unit = split_header(column)[1]
         if signal in given_units:
@@ -124,17 +157,130 @@ def from_columns(table, source, *, columns=None, units=None, sample_period=None,
         else:
             scale, unit, origin = 1.0, SIGNAL_UNITS[signal], 'SI (assumed)'
         inputs[signal] = {'source': column, 'unit': unit, 'scale': scale, 'unit_from': origin}
-        values[signal] = _in_range(table[column], scale, source, f'column {column}', row, first)
-    signals = {**{name: v for name, v in table.items() if name not in chosen.values()},
-               **{name: v for name, v in values.items() if name != 't'}}
-    if 't' in values:
-        period, start, jitter = steady_period(values['t'], source, inputs['t']['source'], row, first)
+        scales[signal] = scale
+    numbers, sampling = first, {}   # the number of the first row, or of each row once rows were dropped
+    if 't' in chosen:
+        t = _in_range(table[chosen['t']], scales['t'], source, f'column {chosen["t"]}', row, first)
+        rows = _window_rows(t, start, end, source)
+        table, t, numbers = {name: v[rows] for name, v in table.items()}, t[rows], first + (rows.start or 0)
+        table, kept, dropped = _without_repeats(table, chosen['t'], t, source, row, numbers)
+        if dropped:
+            t, numbers = t[kept], numbers + np.flatnonzero(kept)
+            shown = ', '.join(map(str, dropped[:5])) + (', ...' if len(dropped) > 5 else '')
+            sampling['warnings'] = [f'{source}: {len(dropped)} repeated row(s) dropped ({row} {shown}: the same time '
+                                    f'and values as the row before)']
+    values = {signal: _in_range(table[column], scales[signal], source, f'column {column}', row, numbers)
+              for signal, column in chosen.items() if signal != 't'}
+    signals = {**{name: v for name, v in table.items() if name not in chosen.values()}, **values}
+    if 't' in chosen:
+        period, start_time, jitter, gaps = steady_period(t, source, inputs['t']['source'], row, numbers)
     else:
         if not 0.0 < float(sample_period) < float('inf'):
             raise InputError(f'{source}: --sample-period must be a positive number of seconds, got {sample_period}')
-        period, start, jitter = float(sample_period), 0.0, 0.0
-    return Recording(sample_period=period, signals=signals, start_time=start, source=source, inputs=inputs,
-                     sampling={'period': period, 'jitter': jitter})
+        period, start_time, jitter, gaps = float(sample_period), 0.0, 0.0, ()
+    recording = Recording(sample_period=period, signals=signals, start_time=start_time, source=source, inputs=inputs,
+                          sampling={'period': period, 'jitter': jitter, **sampling}, gaps=gaps)
+    return recording if 't' in chosen else window(recording, start, end)
+
+
+def window(recording, start=None, end=None):
+    """The samples of `recording` from `start` (s) on, before `end` (s) (None: from its first, to after its last);
+    an InputError, naming the record's span, when there are none."""
+    if start is None and end is None:
+        return recording
+    time = recording.time
+    inside = np.flatnonzero(_within(time, start, end))
+    if not len(inside):
+        raise _outside(recording.source, start, end, *(time[[0, -1]] if len(time) else (math.nan, math.nan)))
+    a, b = inside[0], inside[-1] + 1
+    gaps = tuple((sample - a, missing) for sample, missing in recording.gaps if a < sample < b)
+    return replace(recording, signals={name: v[a:b] for name, v in recording.signals.items()},
+                   start_time=float(time[a]), gaps=gaps)
+
+
+def window_parts(parts, start=None, end=None):
+    """Consecutive parts of a record (Recordings without gaps, in time order: emla_core.bag.iter_chunks') cut to
+    the window as `window` cuts a whole record; the parts after it are not read. An InputError, naming the
+    record's span, when none of their samples is in it."""
+    _check_window(start, end)
+    if start is None and end is None:
+        yield from parts
+        return
+    found, first, last, source = False, math.nan, math.nan, ''
+    for part in parts:
+        time, source = part.time, part.source
+        if len(time):
+            first, last = time[0] if math.isnan(first) else first, time[-1]
+        if _within(time, start, end).any():
+            found = True
+            yield window(part, start, end)
+        elif found:
+            return
+    if not found:
+        raise _outside(source, start, end, first, last)
+
+
+def _check_window(start, end):
+    """An InputError unless the window's `start` is before its `end` (where both are given)."""
+    if start is not None and end is not None and not start < end:
+        raise InputError(f'--start {start:g} s must be before --end {end:g} s')
+
+
+def _within(time, start, end):
+    """Whether each time is from `start` on and before `end` (either None: unbounded)."""
+    return (time >= (-np.inf if start is None else start)) & (time < (np.inf if end is None else end))
+
+
+def _window_rows(t, start, end, source):
+    """The slice of the rows from the first whose time `t` (s) is in the window to the last (all rows without one)."""
+    if start is None and end is None:
+        return slice(None)
+    inside = np.flatnonzero(_within(t, start, end))
+    if not len(inside):
+        raise _outside(source, start, end, *(t[[0, -1]] if len(t) else (math.nan, math.nan)))
+    return slice(inside[0], inside[-1] + 1)
+
+
+def _outside(source, start, end, first, last):
+    """The InputError of a window that holds no sample of a record whose samples run from `first` to `last` (s)."""
+    span = f'the record runs from t = {first:.9g} to {last:.9g} s'
+    if start is not None and start > last:
+        return InputError(f'{source}: --start {start:g} s is after the end of the record ({span})')
+    if end is not None and end <= first:
+        return InputError(f'{source}: --end {end:g} s is not after the start of the record ({span})')
+    low, high = -math.inf if start is None else start, math.inf if end is None else end
+    return InputError(f'{source}: no samples from t = {low:g} to {high:g} s: they fall in a gap of the record ({span})')
+
+
+def _without_repeats(table, time, t, source, row, first):
+    """(table, kept, dropped) of a table without the rows that repeat the row before exactly: the table, which
+    rows are kept (a mask), the numbers of those dropped (the first row's: `first`); an InputError where the time
+    `t` (of column `time`) repeats with other values."""
+    same = np.flatnonzero(t[1:] == t[:-1]) + 1
+    if not len(same):
+        return table, None, []
+    equal = np.ones(len(same), dtype=bool)
+    for values in table.values():
+        now, before = values[same], values[same - 1]
+        equal &= (now == before) | (np.isnan(now) & np.isnan(before))
+    if not equal.all():
+        k = same[np.argmax(~equal)]
+        raise InputError(f'{source}: time is not increasing at {row} {first + k} ({time} = {t[k]:.9g} s again, '
+                         f'with other values than the row before)')
+    kept = np.ones(len(t), dtype=bool)
+    kept[same] = False
+    return {name: values[kept] for name, values in table.items()}, kept, (first + same).tolist()
+
+
+def _gapped(recording):
+    """The InputError of a record with gaps for a caller that takes none: where, and the longest part to take."""
+    ts, gaps = recording.sample_period, recording.gaps
+    longest = max(recording.segments(), key=len)
+    return InputError(f'{recording.source}: {len(gaps)} gap(s) (missing samples), the first after t = '
+                      f'{gap_time(gaps, 0, recording.start_time, ts):.6g} s ({gaps[0][1]} sample(s) missing); only '
+                      f'the grey-box identification (emla identify) takes a record in segments: take a part '
+                      f'without gaps with --start S --end E (the longest: --start '
+                      f'{longest.start_time - ts / 2:.9g} --end {longest.start_time + (len(longest) - 0.5) * ts:.9g})')
 
 
 def _mat_period(path, vectors, columns, units, sample_period):
@@ -218,15 +364,15 @@ def _choose(names, columns, sample_period, source):
 
 def _in_range(raw, scale, source, what, row, first):
     """`raw` * `scale` (the values in SI), once none is beyond MAX_MAGNITUDE in magnitude; `what`, `row` and
-    `first` name the place of one that is."""
+    `first` (the number of the first value, or the numbers of all) name the place of one that is."""
     with np.errstate(over='ignore'):   # an overflow to inf is refused below
         values = raw * scale if scale != 1.0 else raw
     beyond = (values > MAX_MAGNITUDE) | (values < -MAX_MAGNITUDE)   # no temporary array of floats
     if beyond.any():
         k = int(np.argmax(beyond))
         given = f' ({raw[k]:.6g} times the unit factor {scale:g})' if scale != 1.0 else ''
-        raise InputError(f'{source}: {what} at {row} {k + first} is {values[k]:.6g} in SI{given}, beyond the '
-                         f'{MAX_MAGNITUDE:g} the suite computes with; check the data and its unit (--units)')
+        raise InputError(f'{source}: {what} at {row} {row_number(first, k)} is {values[k]:.6g} in SI{given}, beyond '
+                         f'the {MAX_MAGNITUDE:g} the suite computes with; check the data and its unit (--units)')
     return values
 
 
@@ -250,7 +396,7 @@ def _match(table, explicit, source, skip=()):
     return chosen
 
 
-def as_recording(data=None, *, sample_period=None, start_time=0.0, **signals):
+def as_recording(data=None, *, sample_period=None, start_time=0.0, gaps=False, **signals):
     """The Recording that `data` or the arrays `signals` describe: what the suite's functions accept as data.
 
     Parameters
@@ -261,6 +407,8 @@ def as_recording(data=None, *, sample_period=None, start_time=0.0, **signals):
         Sample period in s of the arrays; required with `signals`.
     start_time : float, optional
         Time of the first sample, s.
+    gaps : bool, optional
+        Whether a file with missing samples is read in segments (`load`'s gaps), for a caller that takes them.
     **signals : array_like
         1-D arrays of equal length, named voltage (V), current (A), position (m), velocity (m/s) or force (N).
 
@@ -277,7 +425,7 @@ def as_recording(data=None, *, sample_period=None, start_time=0.0, **signals):
     if data is not None:
         if given:
             raise InputError(f'give either data or signal arrays, not both (got data and {", ".join(given)})')
-        return data if isinstance(data, Recording) else load(data)
+        return data if isinstance(data, Recording) else load(data, gaps=gaps)
     unknown = sorted(set(given) - set(SIGNAL_NAMES))
     if unknown:
         raise InputError(f'unknown signal(s) {", ".join(unknown)}; known: {", ".join(SIGNAL_NAMES)}')

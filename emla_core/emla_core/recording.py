@@ -1,6 +1,6 @@
 """Uniformly sampled recordings of an actuator run (reading them: emla_core.data)."""
 from collections.abc import Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -15,7 +15,9 @@ class Recording:
 
     source: where it came from (a path); metadata: a bag's custom data (e.g. true_resistance of a simulated
     run); inputs: which column/topic and unit each signal was read from; sampling: how time was read
-    (period, jitter), for the commands' JSON.
+    (period, jitter), for the commands' JSON; gaps: ((sample, missing), ...), `missing` samples lost before
+    sample number `sample` (a logger that dropped them: the record is in segments, which segments() gives;
+    emla_core.data.load names what may take them), () for a record without gaps.
     """
     sample_period: float
     signals: dict
@@ -24,6 +26,7 @@ class Recording:
     metadata: dict = field(default_factory=dict)
     inputs: dict = field(default_factory=dict)
     sampling: dict = field(default_factory=dict)
+    gaps: tuple = ()
 
     def __post_init__(self):
         lengths = {len(v) for v in self.signals.values()}
@@ -35,7 +38,24 @@ class Recording:
 
     @property
     def time(self) -> np.ndarray:
-        return self.start_time + self.sample_period * np.arange(len(self))
+        """The time (s) of each sample, the gaps' missing samples skipped."""
+        return self.start_time + self.sample_period * self._grid(np.arange(len(self)))
+
+    def _grid(self, samples):
+        """The places on the record's steady grid (sample 0 at 0) of the sample numbers `samples` (increasing)."""
+        samples = np.asarray(samples, dtype=np.int64)
+        places = samples.copy()
+        for sample, missing in self.gaps:
+            places[samples >= sample] += missing
+        return places
+
+    def segments(self) -> list:
+        """The contiguous parts of the record between its gaps, in time order: Recordings without gaps whose
+        signals are views of this one's."""
+        bounds = [0, *(sample for sample, _ in self.gaps), len(self)]
+        starts = self.start_time + self.sample_period * self._grid(bounds[:-1])
+        return [replace(self, signals={name: values[a:b] for name, values in self.signals.items()},
+                        start_time=float(start), gaps=()) for a, b, start in zip(bounds, bounds[1:], starts)]
 
     def has(self, *names: str) -> bool:
         return all(n in self.signals for n in names)

@@ -21,8 +21,9 @@ from scipy.signal import savgol_filter
 from .discrepancy.dependence import dependence
 from .noise import noise_filters
 from .noise_floor import MAX_RATIO, low_band
-from .physical import coefficients
-from .regressors import COLUMNS, HISTORY, LEAD, rows
+from .online_effects import regression_rows
+from .physical import coefficients, stiffness_index
+from .regressors import COLUMNS, HISTORY, LEAD
 
 MAX_LAG = 50          # samples: the whiteness test's last lag
 WHITE_BOUND = 2.58    # normal quantile of the 99 % bound on a white residual's autocorrelation (times 1/sqrt(N))
@@ -87,14 +88,16 @@ def check_fit(signals, statistics, q, sample_period):
     equally long arrays) for the regressions in `statistics` ({kind: Statistics})."""
     ts = sample_period
     equations, residuals, regressors, sizes = {}, {}, {}, {}
+    effects = next(iter(statistics.values())).effects   # every regression has the same effects' columns
+    made = regression_rows(signals, tuple(statistics), ts, effects)
     for kind in statistics:
-        phi, y = rows(kind, signals, ts)
-        theta = coefficients(kind, q, ts)
+        phi, y, _ = made[kind]
+        theta = coefficients(kind, q, ts, stiffness=stiffness_index(statistics))
         scale = _physical_scale(kind, theta, q, ts)
         residuals[kind] = (y - phi @ theta) * scale
         sizes[kind] = float(np.sqrt(np.mean((y * scale) ** 2)))
         regressors[kind] = phi
-        filters = noise_filters(kind, np.eye(len(theta)), theta, ts)
+        filters = noise_filters(kind, np.eye(len(theta)), theta, ts, effects)
         equations[kind] = (residuals[kind], {name: c * scale for name, c in filters.items()})
     bands = low_band(equations, ts)
     index = np.arange(LEAD, LEAD + len(next(iter(residuals.values()))))

@@ -21,19 +21,24 @@ from numpy.typing import ArrayLike
 
 from emla_core.data import as_recording
 from emla_core.errors import InputError
+from emla_core.physics import EFFECTS
 from emla_core.recording import Recording
 
 from . import offline
 from .checks import TYPICAL, check_excitation, checked, numerical_failures
 from .fit_check import check_fit
 from .moments import RowMoments
+from .online_effects import regression_rows
 from .physical import fit, reported
-from .regressors import HISTORY, instruments, rows
+from .regressors import COLUMNS, HISTORY
+from .segments import identify_segments
 
 RESCALE_BEYOND = 2.0 ** 16
 MEMORY_SPANS = 2          # memory times of the record the fit of an estimate with forgetting is checked on
 MIN_FIT_SAMPLES = 256     # samples below which the fit is not checked (too short for its spectra)
 UNRESOLVED = 0.1          # one-sigma over |value| above which a parameter is reported as not resolved
+PHYSICAL = ('resistance', 'inductance', 'mass')   # positive in any estimate that explains the data
+SPRING_SHARE = 0.9        # of the mechanical equation's unexplained low band a spring must explain to be added
 
 
 @dataclass
@@ -56,6 +61,7 @@ class GreyBoxResult:
     forgetting: float
     trajectory: Trajectory = field(repr=False, default=None)
     fit: dict = field(repr=False, default_factory=dict)   # {equation: fit_check.EquationFit}
+    notes: list = field(default_factory=list)              # what the identification chose, in words
 
     def unresolved(self) -> list:
         """The parameters the data do not resolve: a one-sigma above UNRESOLVED of the value (the inductance of
@@ -66,6 +72,11 @@ class GreyBoxResult:
     def warnings(self) -> list:
         """One line for each equation that does not fit the data and for each unresolved parameter."""
         lines = [line for line in (f.warning() for f in self.fit.values()) if line]
+        impossible = [f'{name} {self.parameters[name]:.4g}' for name in PHYSICAL
+                      if name in self.parameters and not self.parameters[name] > 0]
+        if impossible:
+            lines.append(f'the estimate is not physical ({", ".join(impossible)}): the model does not explain these '
+                         f'data; run `emla discrepancy` to find what is missing')
         unresolved = self.unresolved()
         for name in unresolved:
             lines.append(f'the data do not resolve the {name}: {self.parameters[name]:.4g} +- {self.std[name]:.2g}'
@@ -79,6 +90,17 @@ class GreyBoxResult:
                          f'longer --memory-time resolves more')
         return lines
 
+    def summary(self) -> str:
+        """The result as a table a person reads: parameters, one-sigma, relative sigma, the fit verdict per
+        equation, notes and warnings (summary.py)."""
+        from .summary import summary_text
+        return summary_text(f'{self.model} model, {self.samples} samples at {1.0 / self.sample_period:g} Hz',
+                            self.parameters, self.std, {k: f.to_dict() for k, f in self.fit.items()}, self.notes,
+                            self.warnings())
+
+    def __str__(self) -> str:
+        return self.summary()
+
     def time_constant(self) -> float:
         """L/R of the estimate (s), NaN without them."""
         p = self.parameters
@@ -88,14 +110,15 @@ class GreyBoxResult:
         """The `emla identify` JSON object."""
         return {'model': self.model, 'samples': self.samples, 'sample_period': self.sample_period,
                 'parameters': dict(self.parameters), 'std': dict(self.std),
-                'fit': {name: f.to_dict() for name, f in self.fit.items()}, 'unresolved': self.unresolved()}
+                'fit': {name: f.to_dict() for name, f in self.fit.items()}, 'unresolved': self.unresolved(),
+                'notes': list(self.notes)}
 
 
 def identify(data: Recording | Path | str | None = None, model: str | None = None, forgetting: float = 1.0, *,
              memory_time: float | None = None, sample_period: float | None = None, voltage: ArrayLike | None = None,
              current: ArrayLike | None = None, position: ArrayLike | None = None, force: ArrayLike | None = None,
              velocity: ArrayLike | None = None,
-             initial_covariance: float = 1e6, points: int = 200,
+             initial_covariance: float = 1e6, points: int = 200, spring: bool | None = None,
              progress: Callable[[float], object] | None = None) -> GreyBoxResult:
     """Identify the physical parameters of an actuator from a whole record of its signals.
 
@@ -127,6 +150,11 @@ def identify(data: Recording | Path | str | None = None, model: str | None = Non
         Prior covariance of the regression coefficients (P0 = c I).
     points : int, optional
         About how many estimates the convergence trajectory holds.
+    spring : bool, optional
+        A return spring k x (a flexure, a valve's spring; `spring_stiffness`, N/m, with the load force then the
+        total force at x = 0) in the mechanical equation: True always, False never, None (default) where the
+        data call for it: where the mechanical equation does not fit without it and the spring explains at
+        least SPRING_SHARE of what it leaves (the result's `notes` say so). Coil signals with position only.
     progress : callable, optional
         Called with the fraction of the work done (0..1) as it goes.
 
@@ -153,13 +181,77 @@ def identify(data: Recording | Path | str | None = None, model: str | None = Non
     (4.0, 0.036)
     """
     recording = as_recording(data, sample_period=sample_period, voltage=voltage, current=current,
-                             position=position, force=force, velocity=velocity)
+                             position=position, force=force, velocity=velocity, gaps=True)
     model, kinds, lam = checked(recording, model, forgetting, memory_time)
     scales = unit_scales(recording)
+    report = progress or (lambda done: None)
     with numerical_failures(recording.source, f'the {model} model cannot be identified'):
-        result = _identify(_scaled(recording, scales), model, kinds, lam, initial_covariance, points,
-                           progress or (lambda done: None))
-    return _unscaled(result, scales)
+        if recording.gaps:   # in segments: no row spans a gap (segments.py restarts the rows at each)
+            identified = identify_segments(_scaled(recording, scales), model, kinds, lam, initial_covariance, points,
+                                           report, spring, result)
+        else:
+            identified = _sprung(_scaled(recording, scales), model, kinds, lam, initial_covariance, points, report,
+                                 spring)
+    return _unscaled(identified, scales)
+
+
+def _sprung(recording, model, kinds, lam, initial_covariance, points, report, spring):
+    """The GreyBoxResult with or without the spring's column, as `spring` asks (identify): each candidate's
+    final estimate decides, and only the chosen one's trajectory is fitted."""
+    if 'electrical' not in kinds:   # the spring's exact rows are those from position
+        spring = False
+    options = [()] if spring is False else [(EFFECTS['return_spring'].online,)] if spring else \
+        [(), (EFFECTS['return_spring'].online,)]
+    tried, failure = [], None
+    for j, columns in enumerate(options):
+        def part(done, j=j):
+            report((j + done) / (len(options) + 1))
+        try:
+            snapshots, ends = _snapshots(recording, kinds, lam, initial_covariance, points, part, columns)
+            tried.append((snapshots, ends, final_estimate(model, snapshots[-1], recording, lam)))
+        except InputError as error:
+            failure = error
+            continue
+        if spring is None and j == 0 and _sound(tried[0][2]):
+            break
+    if not tried:
+        raise failure
+    chosen, note = _choice(tried) if len(tried) == 2 else (tried[0], None)
+    snapshots, ends, final = chosen
+    out = result(model, snapshots, ends, recording, len(recording), lam,
+                 lambda j: report((len(options) + (j + 1) / len(ends)) / (len(options) + 1)), final=final)
+    if note:
+        out.notes.append(note)
+    return out
+
+
+def _sound(final):
+    """Whether a final estimate is physical (R, L, m positive) and its mechanical equation fits the data."""
+    q = dict(zip(final.names, final.values))
+    fit = final.fit.get('mechanical')
+    return (np.all(np.isfinite(final.values)) and all(q.get(name, 1.0) > 0 for name in PHYSICAL)
+            and (fit is None or fit.adequate))
+
+
+def _choice(tried):
+    """(the nominal or the sprung of [(snapshots, ends, final)] x 2, a note or None): the spring where the
+    nominal gives no sound estimate and the spring explains SPRING_SHARE of what the nominal leaves."""
+    nominal, sprung = tried
+    before, left = (_ratio(t[2]) for t in tried)
+    physical = all(dict(zip(nominal[2].names, nominal[2].values)).get(name, 1.0) > 0 for name in PHYSICAL)
+    if not _sound(sprung[2]) or (physical and not left <= (1.0 - SPRING_SHARE) * before):
+        return nominal, None
+    final = sprung[2]   # the spring's k is the last of all parameters q (also where the model does not report it)
+    k, sk = final.q[-1], math.sqrt(final.q_covariance[-1, -1])
+    without = (f'{before:.3g} times the sensor noise in its low band' if physical
+               else 'impossible parameters')
+    return sprung, (f'a return spring is in the mechanical equation: k = {k:.4g} +- {sk:.2g} N/m (the load force is '
+                    f'the total force at x = 0); without it the equation left {without}, with it {left:.3g}')
+
+
+def _ratio(final):
+    fit = final.fit.get('mechanical')
+    return math.inf if fit is None else fit.ratio
 
 
 def unit_scales(recording):
@@ -183,7 +275,7 @@ def parameter_scales(names, scales):
     x = scales['position'] if 'position' in scales else scales.get('velocity', 1.0) * t
     force = scales['force'] if 'force' in scales else u * i * t / x
     factors = {'resistance': u / i, 'inductance': u * t / i, 'emf_constant': u * t / x, 'mass': force * t * t / x,
-               'damping': force * t / x, 'load_force': force}
+               'damping': force * t / x, 'load_force': force, 'spring_stiffness': force / x}
     return np.array([factors[name] for name in names])
 
 
@@ -213,46 +305,80 @@ def _unscaled(result, scales):
                                       std=unscaled(trajectory.std)))
 
 
-def _identify(recording, model, kinds, lam, initial_covariance, points, report):
-    """identify() on checked inputs."""
+def _identify(recording, model, kinds, lam, initial_covariance, points, report, columns=()):
+    """identify() on checked inputs, with the effects' `columns` (OnlineColumns) estimated beside the nominal
+    parameters."""
+    snapshots, ends = _snapshots(recording, kinds, lam, initial_covariance, points,
+                                 lambda done: report(done / 2.0), columns)
+    return result(model, snapshots, ends, recording, len(recording), lam,
+                  lambda j: report(0.5 + (j + 1) / (2.0 * len(ends))))
+
+
+def _snapshots(recording, kinds, lam, initial_covariance, points, report, columns=()):
+    """([{kind: Statistics after rows [0, end)}], ends) for about `points` ends, the last all rows; report(done)
+    with the fraction done."""
     source = recording.source or 'recording'
-    n, ts = len(recording), recording.sample_period
-    every = max(1, (n - HISTORY) // points)
+    every = max(1, (len(recording) - HISTORY) // points)
     trajectories = {}  # kind -> [Statistics after rows [0, end) for each end]
-    for j, kind in enumerate(kinds):
-        phi, y = rows(kind, recording.signals, ts)
-        zeta = instruments(kind, recording.signals, ts)
-        check_excitation(phi.T @ phi, kind, source)
+    made = regression_rows(recording.signals, kinds, recording.sample_period, columns)
+    for j, (kind, (phi, y, zeta)) in enumerate(made.items()):
+        nominal = phi[:, :len(COLUMNS[kind])]
+        check_excitation(nominal.T @ nominal, kind, source)
         track = offline.trajectory(phi, y, every, instruments=zeta, forgetting=lam,
                                    initial_covariance=initial_covariance)
         ends = track.samples
-        moments, z, start = RowMoments(phi.shape[1], lam, zeta is not None), np.column_stack((phi, y)), 0
+        moments = RowMoments(phi.shape[1], lam, zeta is not None, tuple(columns))
+        z, start = np.column_stack((phi, y)), 0
         trajectories[kind] = []
         for theta, covariance, end in zip(track.theta, track.covariance, ends):
             moments.update(z[start:end], None if zeta is None else zeta[start:end])
             trajectories[kind].append(moments.statistics(theta, covariance))
             start = end
-        report((j + 1) / (len(kinds) + 1))
-    snapshots = [{kind: trajectory[j] for kind, trajectory in trajectories.items()} for j in range(len(ends))]
-    return result(model, snapshots, ends, recording, n, lam,
-                   lambda j: report((len(kinds) + (j + 1) / len(ends)) / (len(kinds) + 1)))
+        report((j + 1) / len(kinds))
+    return [{kind: trajectory[j] for kind, trajectory in trajectories.items()} for j in range(len(ends))], ends
 
 
-def result(model, snapshots, ends, recording, samples, forgetting, done=lambda j: None):
+@dataclass
+class FinalEstimate:
+    """The estimate from all rows: the reported names, values and covariance, all parameters q and their
+    covariance, the fit check."""
+
+    names: tuple
+    values: np.ndarray
+    covariance: np.ndarray
+    q: np.ndarray
+    q_covariance: np.ndarray
+    fit: dict
+
+
+def final_estimate(model, statistics, recording, forgetting):
+    """The FinalEstimate of `model` from {kind: Statistics} of all rows, its fit started from physical.starts_for
+    (so that it does not depend on any trajectory before it) and checked on the recording (fit_check.py)."""
+    q, q_covariance = fit(statistics, recording.sample_period)
+    names, values, covariance = reported(model, statistics, q, q_covariance)
+    checked = _checked_fit(recording, statistics, q, forgetting) if np.all(np.isfinite(q)) else {}
+    return FinalEstimate(names, values, covariance, q, q_covariance, checked)
+
+
+def result(model, snapshots, ends, recording, samples, forgetting, done=lambda j: None, final=None):
     """The GreyBoxResult from {kind: Statistics} after rows [0, end) for each of `ends` (the last: all rows).
 
     recording: the record or its first part (source, start time, sample period, and the signals the fit is
-    checked on, fit_check.py); done(j) after snapshot j. Each snapshot's fit starts from the one before, but the
-    last (the estimate) from physical.starts_for, so that it does not depend on how many came before."""
+    checked on, fit_check.py); done(j) after snapshot j. Each snapshot's fit starts from the one before; the last
+    is the final estimate (final_estimate, or `final` where it is at hand)."""
     source, ts = recording.source or 'recording', recording.sample_period
     values, stds, q = [], [], None
-    for j, statistics in enumerate(snapshots):
-        warm = j < len(snapshots) - 1 and q is not None and np.all(np.isfinite(q))
-        q, covariance = fit(statistics, ts, start=q if warm else None)
-        names, value, covariance = reported(model, statistics, q, covariance)
+    for j, statistics in enumerate(snapshots[:-1]):
+        q, covariance = fit(statistics, ts, start=q if q is not None and np.all(np.isfinite(q)) else None)
+        _, value, covariance = reported(model, statistics, q, covariance)
         values.append(value)
         stds.append(np.sqrt(np.diag(covariance)))
         done(j)
+    final = final or final_estimate(model, snapshots[-1], recording, forgetting)
+    names, covariance = final.names, final.covariance
+    values.append(final.values)
+    stds.append(np.sqrt(np.diag(covariance)))
+    done(len(snapshots) - 1)
     values, stds = np.array(values), np.array(stds)
     if not np.all(np.isfinite(values[-1])):
         raise InputError(f'{source}: the {model} model gives no finite estimate from these data')
@@ -261,7 +387,7 @@ def result(model, snapshots, ends, recording, samples, forgetting, done=lambda j
     return GreyBoxResult(model=model, parameters={k: float(v) for k, v in zip(names, values[-1])},
                          std={k: float(s) for k, s in zip(names, stds[-1])}, covariance=covariance,
                          samples=samples, sample_period=ts, forgetting=forgetting, trajectory=trajectory,
-                         fit=_checked_fit(recording, snapshots[-1], q, forgetting))
+                         fit=final.fit)
 
 
 def _checked_fit(recording, statistics, q, forgetting):

@@ -18,7 +18,7 @@ def noise_filters(kind, T, theta, sample_period, effects=()):
     effects: the extra columns' (online_effects.py)."""
     coefficients = T.T @ theta
     def column(effect, name):   # an effect's stencil covers samples k-2 .. k+2 (online_effects.py)
-        stencil = effect.stencil(name)
+        stencil = effect.stencil(name, kind)
         return np.pad(stencil, (HISTORY + 1 - len(stencil), 0))
     return {name: dy - np.column_stack([dphi] + [column(e, name) for e in effects]) @ coefficients
             for name, (dy, dphi) in noise_stencils(kind, sample_period).items()}

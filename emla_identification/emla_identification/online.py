@@ -134,12 +134,12 @@ class OnlineIdentifier:
             self._update(given)
 
     def _update(self, given):
-        effects = self._effects.rows(given['position']) if self._effects else None
+        effects, stuck = self._effects.rows(given['position'], self.kinds) if self._effects else (None, None)
         for kind, (phi, y, zeta) in self._stream.rows(given).items():
-            if effects is not None:   # the columns are their own instruments
-                columns, stuck = effects
+            if effects is not None:
+                columns, instruments = effects[kind]
                 phi, y = np.hstack((phi, columns)), y if stuck is None else np.where(stuck, np.nan, y)
-                zeta = None if zeta is None else np.hstack((zeta, columns))
+                zeta = None if zeta is None else np.hstack((zeta, instruments))
             rls = self._rls[kind]
             errors = rls.update_block(phi, y, zeta)
             z = np.column_stack((phi, y))

@@ -4,20 +4,21 @@ each column's form, and the reason an effect cannot run online, are in the effec
 
 A column is -f, f the effect's force per unit parameter about sample k (opposing +x); it enters each regression
 as a load force does, with coefficient -(the regression's gain of a unit load force) p (physical.py; p / m in
-the force regression). An effect followed by the forgetting instead (`online_by_forgetting`: the resistance
-drift) needs a forgetting factor below 1. Columns need the position: a velocity recording runs without them.
+the force regression). A stiffness (the spring) enters the regressions' transition instead, exactly
+(emla_core.physics.online.StiffnessColumn). An effect followed by the forgetting instead
+(`online_by_forgetting`: the resistance drift) needs a forgetting factor below 1. Columns need the position:
+a velocity recording runs without them. The same columns serve the offline identification (regression_rows).
 
 Uncertainties: the sensor-noise model (noise.py) carries noise into a column through its stencils; the
-friction's direction is taken as exact (its skipped rows keep noise from flipping it). The triangle weights
-leave the spring column's noise correlated with the second difference's, a bias of sigma_x^2 / (Ts^2 var x) in
-k / m: 1e-4 relative for 1 um quantisation on a 4 mm stroke.
+friction's direction is taken as exact (its skipped rows keep noise from flipping it). The spring's column is
+instrumented by x_k-2 (StiffnessColumn.instrument says why).
 """
 import numpy as np
 
 from emla_core.errors import InputError
 from emla_core.physics import EFFECTS
 
-from .regressors import HISTORY, LEAD
+from .regressors import HISTORY, LEAD, instruments, rows
 
 
 def online_effects():
@@ -61,15 +62,41 @@ class EffectColumns:
         """As RowStream.restart: the next frame does not follow on from the last one."""
         self._tail = np.empty(0)
 
-    def rows(self, position):
-        """(columns, rows to skip or None) of the rows the new frame's positions complete."""
+    def rows(self, position, kinds):
+        """({kind: (columns, their instruments)}, rows to skip or None) of the rows the new frame's positions
+        complete."""
         x = np.concatenate((self._tail, np.asarray(position, dtype=float).reshape(-1)))
         self._tail = x[-HISTORY:]
         lagged = [x[j:len(x) - HISTORY + j] for j in range(LEAD - 2, LEAD + 3)]   # positions k-2 .. k+2
-        columns, skipped = np.empty((len(lagged[0]), len(self.columns))), None
-        for j, column in enumerate(self.columns):
-            force, skip = column.force(lagged, self.sample_period)
-            columns[:, j] = -force
-            if skip is not None:
-                skipped = skip if skipped is None else skipped | skip
-        return columns, skipped
+        out, skipped = {}, None
+        for kind in kinds:
+            columns, instruments = (np.empty((len(lagged[0]), len(self.columns))) for _ in range(2))
+            for j, column in enumerate(self.columns):
+                force, skip = column.column(lagged, self.sample_period, kind)
+                columns[:, j] = -force
+                instruments[:, j] = -column.instrument(lagged, self.sample_period, kind)
+                if skip is not None:
+                    skipped = skip if skipped is None else skipped | skip
+            out[kind] = columns, instruments
+        return out, skipped
+
+
+def regression_rows(signals, kinds, sample_period, columns=()):
+    """{kind: (Phi, Y, instruments or None)} of a whole record's rows (regressors.rows), with the effects'
+    `columns` (OnlineColumns) beside each regression's own; rows an effect skips are zero (they contribute
+    nothing)."""
+    extra, skipped = (EffectColumns(columns, sample_period).rows(signals['position'], kinds) if columns
+                      else ({}, None))
+    out = {}
+    for kind in kinds:
+        phi, y = rows(kind, signals, sample_period)
+        zeta = instruments(kind, signals, sample_period)
+        if columns:
+            phi = np.hstack((phi, extra[kind][0]))
+            zeta = None if zeta is None else np.hstack((zeta, extra[kind][1]))
+            if skipped is not None:
+                phi[skipped], y = 0.0, np.where(skipped, 0.0, y)
+                if zeta is not None:
+                    zeta[skipped] = 0.0
+        out[kind] = phi, y, zeta
+    return out

@@ -38,15 +38,19 @@ RUNAWAY = 1e6                        # a coil parameter this many times its star
 OFFSET_EVIDENCE = 25.0               # chi-square a free electrical constant must gain, in misfit units
 
 
-def transition(q, sample_period):
+def transition(q, sample_period, stiffness=None):
     """(P, G, H) of the coil and mass over one sample period for parameter rows q[..., :5] = R, L, Km, m, B:
     s_k+1 = P s_k + G u_k + H F for the state s = [I, x, v], the held voltage u and a held load force F (opposing
-    +x). Leading axes of q are kept."""
-    r, ind, km, m, b = np.moveaxis(np.asarray(q, dtype=float)[..., :COIL_PARAMETERS], -1, 0)
+    +x); stiffness: None, or the index in q of a spring's k (its force k x opposing +x is then part of the
+    motion). Leading axes of q are kept."""
+    q = np.asarray(q, dtype=float)
+    r, ind, km, m, b = np.moveaxis(q[..., :COIL_PARAMETERS], -1, 0)
     a = np.zeros(np.shape(r) + (5, 5))
     a[..., 0, 0], a[..., 0, 2], a[..., 0, 3] = -r / ind, -km / ind, 1.0 / ind
     a[..., 1, 2] = 1.0
     a[..., 2, 0], a[..., 2, 2], a[..., 2, 4] = km / m, -b / m, -1.0 / m
+    if stiffness is not None:
+        a[..., 2, 1] = -q[..., stiffness] / m
     e = exponential(a * sample_period)
     return e[..., :3, :3], e[..., :3, 3], e[..., :3, 4]
 
@@ -107,7 +111,7 @@ def input_gains(kind, q, sample_period, motion=None):
         ratio = P[..., 0, 2] / P[..., 1, 2]
         return (G[..., 0] - ratio * G[..., 1])[..., None], (H[..., 0] - ratio * H[..., 1])[..., None]
     a, pxv = P[..., 2, 2], P[..., 1, 2]
-    scale = 2.0 / ((1.0 + a) * sample_period ** 2)   # the symmetric form's second difference is over Ts^2
+    scale = 2.0 / ((1.0 - _lag_coefficient(P)) * sample_period ** 2)   # the second difference is over Ts^2
     return (scale[..., None] * np.stack((pxv * G[..., 2] - a * G[..., 1], G[..., 1]), -1),
             scale[..., None] * np.stack((pxv * H[..., 2] - a * H[..., 1], H[..., 1]), -1))
 
@@ -136,19 +140,20 @@ def piece_gains(kind, q, sample_period, pieces):
         voltage, load = (r[None, :, 0] - ratio * r[None, :, 1] for r in responses)
         return voltage, load
     a, pxv = P[2, 2], P[1, 2]
-    scale = 2.0 / ((1.0 + a) * sample_period ** 2)
+    scale = 2.0 / ((1.0 - _lag_coefficient(P)) * sample_period ** 2)
     voltage, load = (scale * np.stack((pxv * r[:, 2] - a * r[:, 1], r[:, 1])) for r in responses)
     return voltage, load
 
 
-def coefficients(kind, q, sample_period, motion=None):
+def coefficients(kind, q, sample_period, motion=None, stiffness=None):
     """The coefficients g(q) of regression `kind` (regressors.py) for parameter rows q: [R, L, Km, m, B, Fl, p...]
     ([m, B, Fl, p...] for the force regression: [1, B, Fl, p...] / m), along the last axis; motion: transition(q)
-    if it is at hand."""
+    if it is at hand; stiffness: the index in q of a spring's k, whose column (-x_k-1, -x_k: online.py of the
+    physics layer) takes the coefficient of the exact relation with k in the transition (docs/physics.md §3.8)."""
     q = np.asarray(q, dtype=float)
     if kind == 'force':   # columns [f_tri, -v_tri, -1, f_effect...]: accelerations
         return q[..., :1] ** -1 * np.concatenate((np.ones_like(q[..., :1]), q[..., 1:]), axis=-1)
-    P, G, H = motion = transition(q, sample_period) if motion is None else motion
+    P, G, H = motion = transition(q, sample_period, stiffness) if motion is None else motion
     voltage, load = input_gains(kind, q, sample_period, motion)
     # the load-force coefficients: Fl (column 1) and the effects' p (columns -f, online_effects.py)
     loads = np.sum(load, axis=-1, keepdims=True) * np.concatenate(
@@ -159,12 +164,22 @@ def coefficients(kind, q, sample_period, motion=None):
     ratio, ts = P[..., 0, 2] / P[..., 1, 2], sample_period
     if kind == 'electrical':   # the displacement's column is over Ts (regressors.rows)
         nominal = np.stack((P[..., 0, 0] - ratio * P[..., 1, 0], voltage[..., 0], ratio * ts), -1)
+        if stiffness is not None:   # I_k gets (P_Ix + r (1 - P_xx)) x_k-1 beside r (x_k - x_k-1)
+            loads[..., stiffness - COIL_PARAMETERS] = -(P[..., 0, 1] + ratio * (1.0 - P[..., 1, 1]))
         return np.concatenate((nominal, loads), axis=-1)
-    a, pxv = P[..., 2, 2], P[..., 1, 2]
-    scale = 2.0 / ((1.0 + a) * ts * ts)   # the second difference is over Ts^2, the central one over 2 Ts
-    nominal = np.stack((-2.0 * (1.0 - a) / ((1.0 + a) * ts), scale * P[..., 1, 0],
+    a, pxv, lag = P[..., 2, 2], P[..., 1, 2], _lag_coefficient(P)
+    scale = 2.0 / ((1.0 - lag) * ts * ts)   # the second difference is over Ts^2, the central one over 2 Ts
+    nominal = np.stack((-2.0 * (1.0 + lag) / ((1.0 - lag) * ts), scale * P[..., 1, 0],
                         scale * (pxv * P[..., 2, 0] - a * P[..., 1, 0]), voltage[..., 1], voltage[..., 0]), -1)
+    if stiffness is not None:   # x_k+1 - (P_xx + a) x_k - lag x_k-1: the level x_k keeps 1 - P_xx - a - lag
+        loads[..., stiffness - COIL_PARAMETERS] = scale * (1.0 - P[..., 1, 1] - a - lag)
     return np.concatenate((nominal, loads), axis=-1)
+
+
+def _lag_coefficient(P):
+    """x_k-1's coefficient in the mechanical relation x_k+1 = (P_xx + a) x_k + (P_xv P_vx - a P_xx) x_k-1 + ...
+    (a = P_vv; -a without a spring)."""
+    return P[..., 1, 2] * P[..., 2, 1] - P[..., 2, 2] * P[..., 1, 1]
 
 
 def jacobian(kind, q, sample_period):
@@ -268,7 +283,9 @@ def fit(statistics, sample_period, noise=True, start=None):
             if not noise or not np.all(np.isfinite(q)):
                 return q, covariance
         # the noise model about the model's own coefficients (the free ones scatter widely at high rates)
-        fitted = {kind: (np.eye(len(s.theta)), coefficients(kind, q, sample_period)) for kind, s in statistics.items()}
+        stiff = stiffness_index(statistics)
+        fitted = {kind: (np.eye(len(s.theta)), coefficients(kind, q, sample_period, stiffness=stiff))
+                  for kind, s in statistics.items()}
         variances = noise_variances(statistics, fitted, sample_period)
         if not any(v > 0 for v in variances.values()):   # noise-free: the white weights are all there is
             white = {kind: _white_covariance(s) for kind, s in statistics.items()}
@@ -313,16 +330,20 @@ def _minimum_distance(statistics, covariances, sample_period, start):
     offset = _offset_column(statistics)
     free = whiten[:, [] if offset is None else [offset]]   # the free constant's column in the residual
 
+    stiff = stiffness_index(statistics)
+
     def g(z):   # the coefficients of all regressions for scaled parameters z (rows of z)
         q = z * scale
-        motion = None if 'force' in statistics else transition(q, sample_period)
-        return np.concatenate([coefficients(k, q, sample_period, motion) for k in kinds], axis=-1)
+        motion = None if 'force' in statistics else transition(q, sample_period, stiff)
+        return np.concatenate([coefficients(k, q, sample_period, motion, stiff) for k in kinds], axis=-1)
 
     def residual(z):   # z: the scaled parameters, then the free constants (none or one)
         return whiten @ (g(z[:n]) - theta) + free[:, :len(z) - n] @ z[n:]
 
     def jacobian(z):
         steps = np.where(np.arange(n) < COIL_PARAMETERS, 1e-6 * np.maximum(np.abs(z[:n]), 1e-3), 1.0)
+        if stiff is not None:   # k enters nonlinearly: relative to it, or to the mass's m / Ts^2
+            steps[stiff] = 1e-6 * max(abs(z[stiff]), abs(z[3] * scale[3]) / sample_period ** 2)
         return np.column_stack((whiten @ _differences(g, z[:n], steps), free[:, :len(z) - n]))
 
     def best_fit(starts):
@@ -402,6 +423,17 @@ def _block_whitening(blocks):
     return whiten
 
 
+def stiffness_index(statistics):
+    """The index in q (parameter_names) of a stiffness column's parameter (a spring's k), or None."""
+    if 'force' in statistics:
+        return None
+    first = next(iter(statistics.values()))
+    for j, effect in enumerate(first.effects):
+        if effect.stiffness:
+            return COIL_PARAMETERS + 1 + j
+    return None
+
+
 def _effect_names(statistics):
     """The parameters of the online effects' columns (every regression has the same ones)."""
     first = next(iter(statistics.values()))
@@ -411,6 +443,7 @@ def _effect_names(statistics):
 def reported(model, statistics, values, covariance):
     """(names, values, covariance) of `model`'s parameters (and the online effects') from those of all q."""
     names = parameter_names(statistics)
-    reported = MODEL_PARAMETERS[model] + _effect_names(statistics)
+    # the electrical model reports the coil's own: the effects (forces) are the mechanical equation's
+    reported = MODEL_PARAMETERS[model] + (() if model == 'electrical' else _effect_names(statistics))
     keep = [names.index(n) for n in reported]
     return reported, values[keep], covariance[np.ix_(keep, keep)]

@@ -1,10 +1,10 @@
 """Identification of records too long to hold in memory, part by part (identify_chunks).
 
 identify_chunks takes a record as consecutive parts (Recordings: emla_core.bag.iter_chunks from a bag, split()
-of one in memory) and keeps per regression an offline.WeightedAccumulator and the moments.RowMoments of its rows,
-and their plain Gram matrix for the excitation check: memory of one part and a few small matrices, whatever the
-record's length. The result is greybox.identify's on the whole record to rounding (the same least-squares
-states and moments, summed in other groupings); the convergence trajectory is sampled at part ends.
+of one in memory) and accumulates their rows' statistics (segments.py): memory of one part and a few small
+matrices, whatever the record's length. The result is greybox.identify's on the whole record to rounding (the
+same least-squares states and moments, summed in other groupings); the convergence trajectory is sampled at
+part ends. A record in segments (samples lost) goes the same way: no row spans a gap.
 """
 import itertools
 from collections.abc import Callable, Iterable, Iterator
@@ -12,19 +12,19 @@ from pathlib import Path
 
 import numpy as np
 
+from emla_core.data import window_parts
 from emla_core.recording import Recording
 
-from . import checks, greybox, offline
+from . import checks, greybox
 from .greybox import GreyBoxResult
-from .moments import RowMoments
-from .regressors import COLUMNS, HISTORY, INSTRUMENTED, RowStream
+from .segments import identified, skipped, split
 
-CHUNK_SAMPLES = 1 << 14  # samples whose rows are formed at a time: they stay in cache
 LONG_SAMPLES = 1 << 20   # from here on a record is identified part by part (bounded memory)
 
 
 def read_record(path: Path | str, load: Callable[[Path], Recording], *, plain: bool = True,
-                long_samples: int | None = None) -> tuple[Recording, Iterator[Recording] | None]:
+                long_samples: int | None = None, start: float | None = None,
+                end: float | None = None) -> tuple[Recording, Iterator[Recording] | None]:
     """A record as identify_chunks or greybox.identify takes it, read in bounded memory when it is long.
 
     Parameters
@@ -38,12 +38,14 @@ def read_record(path: Path | str, load: Callable[[Path], Recording], *, plain: b
         read in parts as it goes, never held whole.
     long_samples : int, optional
         Records of this many samples or more are identified part by part (default LONG_SAMPLES).
+    start, end : float, optional
+        The window (s, emla_core.data.load's) a bag read in parts is cut to; `load` cuts the others itself.
 
     Returns
     -------
     tuple
         (the Recording, None) when it is shorter than `long_samples`, else (it or its first part, an iterator
-        over its consecutive parts).
+        over its consecutive parts). Either may be in segments: the Recording's gaps, parts that do not follow on.
     """
     from emla_core.bag import iter_chunks
     from emla_core.bag.foreign import suite_layout
@@ -52,16 +54,28 @@ def read_record(path: Path | str, load: Callable[[Path], Recording], *, plain: b
     if not plain or not suite_layout(path):
         recording = load(path)
         return recording, None if len(recording) < long_samples else split(recording)
-    parts = iter_chunks(path)
+    parts = window_parts(iter_chunks(path), start, end)
     head, samples = [], 0
     for part in parts:
         head.append(part)
         samples += len(part)
         if samples >= long_samples:
             return head[0], itertools.chain(_handed_over(head), parts)
-    first = head[0]  # iter_chunks yields at least one part
-    whole = {name: np.concatenate([part.signals[name] for part in head]) for name in first.signals}
-    return Recording(first.sample_period, whole, first.start_time, first.source, first.metadata), None
+    return join(head), None   # iter_chunks yields at least one part
+
+
+def join(parts: list[Recording]) -> Recording:
+    """One Recording of consecutive parts (each without gaps, in time order, as iter_chunks yields them): their
+    samples, with a gap (Recording.gaps) where a part does not follow on from the one before."""
+    first, gaps, samples, end = parts[0], [], 0, None
+    for part in parts:
+        missing = 0 if end is None else skipped(end, part)
+        if missing:
+            gaps.append((samples, missing))
+        samples += len(part)
+        end = part.start_time + len(part) * part.sample_period
+    whole = {name: np.concatenate([part.signals[name] for part in parts]) for name in first.signals}
+    return Recording(first.sample_period, whole, first.start_time, first.source, first.metadata, gaps=tuple(gaps))
 
 
 def _handed_over(parts):
@@ -70,39 +84,16 @@ def _handed_over(parts):
         yield parts.pop(0)
 
 
-class _Regression:
-    """What identify_chunks keeps of one regression's rows."""
-
-    def __init__(self, kind, forgetting, initial_covariance):
-        n = len(COLUMNS[kind])
-        self.least_squares = offline.WeightedAccumulator(n, instrumented=kind in INSTRUMENTED,
-                                                         forgetting=forgetting, initial_covariance=initial_covariance)
-        self.moments = RowMoments(n, forgetting, kind in INSTRUMENTED)
-        self._gram = None if forgetting == 1.0 else np.zeros((n, n))  # else the lag-0 moment is that sum
-
-    def add(self, phi, y, zeta):
-        z = np.column_stack((phi, y) if zeta is None else (phi, y, zeta))
-        self.least_squares.add_stacked(z)
-        self.moments.update(z[:, :phi.shape[1] + 1], zeta)
-        if self._gram is not None:
-            self._gram += phi.T @ phi
-
-    def gram(self):
-        """sum of phi phi' over the rows, unweighted (for the excitation check)."""
-        return self.moments.rows.moments[0, :-1, :-1] if self._gram is None else self._gram
-
-    def statistics(self):
-        estimate = self.least_squares.estimate()
-        return self.moments.statistics(estimate.theta, estimate.covariance)
-
-
 def identify_chunks(chunks: Iterable[Recording], model: str | None = None, forgetting: float = 1.0, *,
                     initial_covariance: float = 1e6, points: int = 200,
-                    progress: Callable[[int], object] | None = None) -> GreyBoxResult:
+                    progress: Callable[[int], object] | None = None, spans: list | None = None) -> GreyBoxResult:
     """greybox.identify of the record that `chunks` yields as consecutive Recordings, one held at a time.
 
-    The trajectory holds the estimates after at most `points` evenly spaced parts (the last: the final
-    estimate); progress: None or a function called with the samples done after each part.
+    A part that starts after the previous one's end begins a new segment of the record (samples were lost
+    between them): no row spans the gap. The trajectory holds the estimates after at most `points` evenly spaced
+    parts (the last: the final estimate); progress: None or a function called with the samples done after each
+    part; spans: None or a list that gets [start time s, samples] of each segment as it is read (for
+    emla_core.sampling.listing).
     """
     chunks = iter(chunks)
     first = next(chunks, None)
@@ -111,45 +102,5 @@ def identify_chunks(chunks: Iterable[Recording], model: str | None = None, forge
     model, kinds, lam = checks.setup(first, model, forgetting)
     checks.check_magnitudes(first)
     with checks.numerical_failures(first.source, f'the {model} model cannot be identified'):
-        return _identified(first, chunks, model, kinds, lam, initial_covariance, points, progress)
-
-
-def _identified(first, chunks, model, kinds, lam, initial_covariance, points, progress):
-    """identify_chunks on checked settings: the first part, then the others from the iterator `chunks`."""
-    stream = RowStream(kinds, first.sample_period)
-    regressions = {kind: _Regression(kind, lam, initial_covariance) for kind in kinds}
-    snapshots, ends, stride, parts = [], [], 1, 0
-    for part in itertools.chain([first], chunks):
-        if part.sample_period != first.sample_period:
-            raise ValueError(f'parts with different sample periods ({first.sample_period}, {part.sample_period})')
-        checks.check_finite(part, kinds, first=stream.samples)
-        for start in range(0, len(part), CHUNK_SAMPLES):  # whatever the parts' size, rows in cache-sized slices
-            piece = {name: part.signals[name][start:start + CHUNK_SAMPLES] for name in stream.signals}
-            for kind, (phi, y, zeta) in stream.rows(piece).items():
-                regressions[kind].add(phi, y, zeta)
-        if stream.samples > HISTORY:
-            parts += 1
-            if parts % stride == 0 and points > 1:  # every stride-th part, stride doubling to keep < points
-                snapshots.append({kind: r.statistics() for kind, r in regressions.items()})
-                ends.append(stream.samples - HISTORY)
-                if len(snapshots) >= points:
-                    snapshots, ends, stride = snapshots[1::2], ends[1::2], 2 * stride
-        if progress:
-            progress(stream.samples)
-    checks.check_length(stream.samples, model, first.source)
-    for kind, regression in regressions.items():
-        checks.check_excitation(regression.gram(), kind, first.source or 'recording')
-    if ends and ends[-1] == stream.samples - HISTORY:
-        snapshots, ends = snapshots[:-1], ends[:-1]
-    snapshots.append({kind: r.statistics() for kind, r in regressions.items()})
-    ends.append(stream.samples - HISTORY)
-    return greybox.result(model, snapshots, ends, first, stream.samples, lam)
-
-
-def split(recording: Recording, chunk_samples: int = CHUNK_SAMPLES) -> Iterator[Recording]:
-    """Consecutive parts of an in-memory Recording, `chunk_samples` samples each (the last shorter; views)."""
-    ts = recording.sample_period
-    for start in range(0, max(len(recording), 1), chunk_samples):
-        yield Recording(ts, {name: values[start:start + chunk_samples] for name, values in recording.signals.items()},
-                        start_time=recording.start_time + start * ts, source=recording.source,
-                        metadata=recording.metadata)
+        return identified(first, chunks, model, kinds, lam, initial_covariance, points, progress,
+                          [] if spans is None else spans, greybox.result)

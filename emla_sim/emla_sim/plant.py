@@ -8,6 +8,13 @@ from the matrix exponential of the augmented system (cached per parameters and d
 With effects the plant takes classical RK4 sub-steps of at most MAX_SUBSTEP, compiled with numba for the
 built-in effects (effects.integrate_interval), through the effect hooks in Python for other effects.
 Parameter changes take effect at their exact time, inside an interval if need be.
+
+A dry friction sticks rigidly (equations.friction_force), unless its effect has a pre-sliding band
+(`presliding_displacement` delta > 0: the coulomb_friction of a model whose contact is elastic, as the discrepancy
+workflow's candidate has it). Its stuck contact is then the elasto-plastic one of that candidate, on the true
+position: z = x - y, y the play operator of width delta on x (the contact's anchor, a state of the plant), the
+friction Fc z / delta + sigma1 dz/dt (sigma1 its `presliding_damping`; dz/dt = v within the band, 0 while it
+slides). The anchor moves after each RK4 sub-step; within one, the force is that of the anchor it started from.
 """
 from __future__ import annotations
 
@@ -23,7 +30,16 @@ from scipy.linalg import expm
 
 from emla_core.parameters import TABLE1, ActuatorParameters
 from emla_core.physics import AMBIENT_TEMPERATURE, Effect, make_effect
-from emla_core.physics.kernel import coil_state, hook_rates, integrate_interval, integrate_sequence, kernel_vector
+from emla_core.physics.kernel import (
+    SLOTS,
+    _derivatives,
+    _emf,
+    coil_state,
+    hook_rates,
+    integrate_interval,
+    integrate_sequence,
+    kernel_vector,
+)
 
 if TYPE_CHECKING:
     from emla_sim.effects import ParameterChange
@@ -33,6 +49,7 @@ if TYPE_CHECKING:
 MAX_SUBSTEP = 1e-5
 _TIME_TOL = 1e-9  # s; a parameter change this close to an interval's end happens at that end
 _COLUMNS = ('current', 'position', 'velocity', 'temperature', 'force')
+_LOAD, _FRICTION = SLOTS.index('load_force'), SLOTS.index('coulomb_force')   # kernel slots the contact takes over
 
 
 @functools.lru_cache(maxsize=64)
@@ -98,6 +115,10 @@ class Plant:
             raise ValueError(f'initial_state is (current, position, velocity[, temperature]), got {state!r}')
         self._i, self._x, self._v, self._temp = (float(s) for s in state + (ambient,) * (4 - len(state)))
         self._time = 0.0
+        # (Fc, delta, sigma1) of an elastic stuck contact, or None; its anchor y, relaxed at the start
+        contact, self._contact = _elastic_contact(self._effects)
+        self._anchor = self._x
+        self._hooked = tuple(e for e in self._effects if e is not contact)   # its effect acts through it alone
         self._set_parameters(params)
         self._apply_due_changes()
 
@@ -227,6 +248,10 @@ class Plant:
             self._i = ii * i + iv * v + iu * u + i0
             self._x += xi * i + xv * v + xu * u + x0
             self._v = vi * i + vv * v + vu * u + v0
+        elif self._contact is not None and self._kernel is not None:
+            self._i, self._x, self._v, self._temp, self._anchor = _contact_interval(
+                self._i, self._x, self._v, self._temp, self._anchor, u, dt, self._substeps_for(dt), self._kernel,
+                self._contact)
         elif self._kernel is not None:
             self._i, self._x, self._v, self._temp = integrate_interval(
                 self._i, self._x, self._v, self._temp, u, dt, self._substeps_for(dt), self._kernel)
@@ -248,6 +273,10 @@ class Plant:
             zs = _zoh_sequence(phi, gamma[:, 0].copy(), gamma[:, 1] * p.load_force,
                                np.array([self._i, self._x, self._v]), u)
             rows = np.column_stack((zs, np.full(u.size, self._temp), p.emf_constant * zs[:, 0]))
+        elif self._contact is not None and self._kernel is not None:
+            rows = _contact_sequence(np.array([self._i, self._x, self._v, self._temp, self._anchor]), u, dt,
+                                     self._substeps_for(dt), self._kernel, self._contact)
+            self._anchor, rows = float(rows[-1, 5]), rows[:, :5]
         elif self._kernel is not None:
             rows = integrate_sequence(np.array([self._i, self._x, self._v, self._temp]), u, dt,
                                       self._substeps_for(dt), self._kernel)
@@ -263,14 +292,89 @@ class Plant:
         return self._i, self._x, self._v, self._temp, self.force
 
     def _integrate_hooks(self, u, dt):
-        """Classical RK4 through the effect hooks: same scheme as kernel.integrate_interval."""
+        """Classical RK4 through the effect hooks: same scheme as kernel.integrate_interval (and _contact_interval,
+        the elastic contact's anchor moved after each sub-step)."""
         n = self._substeps_for(dt)
         h = dt / n
         y = np.array([self._i, self._x, self._v, self._temp])
         for _ in range(n):
-            k1 = hook_rates(self._params, self._effects, y, u, h)
-            k2 = hook_rates(self._params, self._effects, y + 0.5 * h * k1, u, h)
-            k3 = hook_rates(self._params, self._effects, y + 0.5 * h * k2, u, h)
-            k4 = hook_rates(self._params, self._effects, y + h * k3, u, h)
+            k1 = self._hook_rates(y, u, h)
+            k2 = self._hook_rates(y + 0.5 * h * k1, u, h)
+            k3 = self._hook_rates(y + 0.5 * h * k2, u, h)
+            k4 = self._hook_rates(y + h * k3, u, h)
             y = y + h / 6.0 * (k1 + 2.0 * (k2 + k3) + k4)
+            if self._contact is not None:
+                band = self._contact[1]
+                self._anchor = min(max(self._anchor, float(y[1]) - band), float(y[1]) + band)
         return tuple(float(c) for c in y)
+
+    def _hook_rates(self, y, u, h):
+        """kernel.hook_rates at the state y, with the elastic contact's force (if any) in the load."""
+        if self._contact is None:
+            return hook_rates(self._params, self._effects, y, u, h)
+        contact = _contact_force(float(y[1]), float(y[2]), self._anchor, self._contact)
+        return hook_rates(self._params.replace(load_force=self._params.load_force + contact), self._hooked, y, u, h)
+
+
+def _elastic_contact(effects):
+    """(the effect, its (Fc, delta, sigma1) as an array) of the friction among `effects` whose stuck contact is
+    elastic (a pre-sliding band `presliding_displacement` delta > 0; an effect without one sticks rigidly), or
+    (None, None)."""
+    contacts = [(effect, np.array([effect.friction_level(), effect.presliding_displacement,
+                                   getattr(effect, 'presliding_damping', 0.0)]))
+                for effect in effects if getattr(effect, 'presliding_displacement', 0.0) > 0.0]
+    if len(contacts) > 1:
+        raise ValueError(f'the plant follows one elastic friction contact, not {len(contacts)}')
+    return contacts[0] if contacts else (None, None)
+
+
+@numba.njit(cache=True)
+def _contact_force(x, v, anchor, contact):
+    """The elastic contact's force on the moving part (N, opposing +x) at (x, v) and its anchor: Fc z / delta +
+    sigma1 dz/dt, z = x - anchor held within the band; dz/dt = v within it or back into it, 0 while it slides."""
+    coulomb, band, damping = contact[0], contact[1], contact[2]
+    z = min(max(x - anchor, -band), band)
+    if abs(z) >= band * (1.0 - 1e-9) and z * v > 0.0:   # sliding: the anchor follows the part
+        return coulomb * z / band
+    return coulomb * z / band + damping * v
+
+
+@numba.njit(cache=True)
+def _contact_interval(i, x, v, temp, anchor, u, dt, substeps, p, contact):
+    """(I, x, v, T, anchor) after dt at constant voltage u: kernel.integrate_interval's RK4 sub-steps with the
+    kernel's rigid friction off and the elastic contact's force in the load of every stage, its anchor moved after
+    each sub-step (the play operator)."""
+    h = dt / substeps
+    q = p.copy()
+    q[_FRICTION] = 0.0
+    load, band = p[_LOAD], contact[1]
+    for _ in range(substeps):
+        q[_LOAD] = load + _contact_force(x, v, anchor, contact)
+        a0, a1, a2, a3 = _derivatives(i, x, v, temp, u, q, h)
+        x1, v1 = x + 0.5 * h * a1, v + 0.5 * h * a2
+        q[_LOAD] = load + _contact_force(x1, v1, anchor, contact)
+        b0, b1, b2, b3 = _derivatives(i + 0.5 * h * a0, x1, v1, temp + 0.5 * h * a3, u, q, h)
+        x2, v2 = x + 0.5 * h * b1, v + 0.5 * h * b2
+        q[_LOAD] = load + _contact_force(x2, v2, anchor, contact)
+        c0, c1, c2, c3 = _derivatives(i + 0.5 * h * b0, x2, v2, temp + 0.5 * h * b3, u, q, h)
+        x3, v3 = x + h * c1, v + h * c2
+        q[_LOAD] = load + _contact_force(x3, v3, anchor, contact)
+        d0, d1, d2, d3 = _derivatives(i + h * c0, x3, v3, temp + h * c3, u, q, h)
+        i += h / 6.0 * (a0 + 2.0 * (b0 + c0) + d0)
+        x += h / 6.0 * (a1 + 2.0 * (b1 + c1) + d1)
+        v += h / 6.0 * (a2 + 2.0 * (b2 + c2) + d2)
+        temp += h / 6.0 * (a3 + 2.0 * (b3 + c3) + d3)
+        anchor = min(max(anchor, x - band), x + band)
+    return i, x, v, temp, anchor
+
+
+@numba.njit(cache=True)
+def _contact_sequence(state, voltages, dt, substeps, p, contact):
+    """Rows (I, x, v, T, coil force, anchor) at the end of each ZOH interval, from state (I, x, v, T, anchor)."""
+    out = np.empty((voltages.size, 6))
+    i, x, v, temp, anchor = state[0], state[1], state[2], state[3], state[4]
+    for k in range(voltages.size):
+        i, x, v, temp, anchor = _contact_interval(i, x, v, temp, anchor, voltages[k], dt, substeps, p, contact)
+        out[k, 0], out[k, 1], out[k, 2], out[k, 3], out[k, 5] = i, x, v, temp, anchor
+        out[k, 4] = _emf(x, p) * i
+    return out

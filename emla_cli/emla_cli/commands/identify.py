@@ -3,7 +3,8 @@ part by part for long records: streaming; ARX: arx; a model file's structure: mo
 description().
 
 Records of 2^20 samples or more are identified part by part, in bounded memory: a bag is then never held whole
-(streaming.read_record); the estimates equal the whole-record ones to rounding."""
+(streaming.read_record); the estimates equal the whole-record ones to rounding. The grey-box models take a record
+with missing samples in segments (the JSON's "segments" and "gaps"); the others refuse it (inputs.load_data)."""
 import sys
 from pathlib import Path
 
@@ -11,9 +12,18 @@ from emla_core.bag.report import read_warnings
 from emla_core.errors import InputError
 from emla_core.parameters import FAMILIES
 
-from .inputs import DATA_HELP, add_data_arguments, foreign, load_data, understood, unknown_figures, warn
+from .inputs import (
+    DATA_HELP,
+    add_data_arguments,
+    foreign,
+    load_data,
+    reading_warnings,
+    understood,
+    unknown_figures,
+    warn,
+)
 from .numbers import add_number
-from .output import add_force_argument, check_outputs, emit_json
+from .output import add_force_argument, check_outputs, emit_json, write_stdout
 
 HELP = 'Identify actuator parameters (grey-box) or an ARX model from a CSV file or a bag.'
 
@@ -42,7 +52,11 @@ input voltage, output current, orders 2 2 1 (the coil current's exact structure)
 equals batch least squares.
 
 Long records (a million samples and more) are read and identified in parts with bounded memory; the
-result is the same. The JSON goes to stdout unless --json is given; --plot draws the estimates converging
+result is the same. A record with missing samples (a logger that dropped some, a bag's lost frames) is
+identified in segments by the grey-box models: no regression row spans a gap, every segment's rows feed the one
+estimate, and the JSON lists the "segments" (start, end s, samples) and "gaps" (start, end s, missing samples);
+the fit is checked on the longest segment (with forgetting: the last); --start/--end take a part of a record.
+The JSON goes to stdout unless --json FILE is given (then a summary table does; --json - keeps the JSON); --plot draws the estimates converging
 (and the true values, when a simulated bag carries them); --trajectory writes the estimates over time as CSV
 (time, then each parameter and its _std, SI units; with forgetting they follow a drifting plant), one row per
 --trajectory-interval (default: about 200 rows). With --model-file the structure of a model file
@@ -70,6 +84,9 @@ def add_arguments(parser):
     parser.add_argument('--model', default=None, metavar='MODEL',
                         help='electrical, mechanical, full or arx (default: full for voltage/current/position '
                              'data, mechanical for force/position data)')
+    parser.add_argument('--spring', choices=('auto', 'on', 'off'), default='auto',
+                        help='a return spring k x in the mechanical equation: auto (default) where the data call '
+                             'for it (the JSON\'s notes say so), on always, off never')
     parser.add_argument('--orders', nargs=3, metavar=('NA', 'NB', 'NK'),
                         help='ARX orders: output lags, input lags, input delay in samples (default 2 2 1)')
     memory = parser.add_mutually_exclusive_group()
@@ -79,7 +96,8 @@ def add_arguments(parser):
                help='memory time constant in s instead (LAMBDA = 1 - Ts/S)')
     parser.add_argument('--input', metavar='COL', help='ARX input column (default voltage)')
     parser.add_argument('--output', metavar='COL', help='ARX output column (default current)')
-    parser.add_argument('--json', metavar='FILE', help='write the result here instead of stdout')
+    parser.add_argument('--json', metavar='FILE', help='write the result here (a summary table then goes to stdout); '
+                                                       '- for stdout, as without it')
     parser.add_argument('--plot', metavar='FILE.png', help='PNG of the estimates converging over time (with '
                         '--observer-from: the position and R from the coil over time)')
     parser.add_argument('--trajectory', metavar='FILE.csv',
@@ -111,7 +129,8 @@ def run(args):
         return _observer(args) if args.observer_from else _solenoid(args)
     model, orders = _options(args)
     forgetting = args.forgetting
-    check_outputs({'--json': args.json, '--plot': args.plot, '--model-out': args.model_out,
+    json_path = None if args.json == '-' else args.json   # '-': stdout, as without --json
+    check_outputs({'--json': json_path, '--plot': args.plot, '--model-out': args.model_out,
                    '--trajectory': args.trajectory}, [args.data, args.model_file], args.force)
     structure = None
     if args.model_file:
@@ -130,7 +149,8 @@ def run(args):
             trajectory, fit = None, []
         else:
             from emla_identification.streaming import read_record
-            recording, parts = read_record(args.data, lambda path: load_data(args), plain=not foreign(args))
+            recording, parts = read_record(args.data, lambda path: load_data(args, gaps=True), plain=not foreign(args),
+                                           start=args.start, end=args.end)
             lam = _memory(args, forgetting, recording)
             result, plot, identified, trajectory, fit = _greybox(recording, parts, model, lam, args)
     from emla_identification.plausibility import plausibility_warnings
@@ -139,10 +159,11 @@ def run(args):
     found = slips or fit   # a slip the plausibility checks name is the root cause of any misfit
     if fit and not slips and result.get('model') == 'full' and parts is None:   # another actuator family's record?
         from emla_identification.solenoid import solenoid_hint
-        found += [hint for hint in (solenoid_hint(recording),) if hint]
+        found += [hint for hint in (solenoid_hint(max(recording.segments(), key=len)),) if hint]
     found += unknown_figures(result)
-    if model != 'arx' or found or lost:   # (an ARX result has warnings only when there are some)
-        result['warnings'] = lost + warn(found, 'identify')
+    read = reading_warnings(recording)   # (understood prints them)
+    if model != 'arx' or found or lost or read:   # (an ARX result has warnings only when there are some)
+        result['warnings'] = lost + warn(found, 'identify') + read
     result.update(understood(recording, 'identify'))
     files = []
     if args.model_out:
@@ -154,7 +175,13 @@ def run(args):
     if args.trajectory:
         from emla_identification.trajectory_file import write_trajectory
         files.append((args.trajectory, lambda temporary: write_trajectory(trajectory, temporary)))
-    emit_json(result, args.json, files)
+    emit_json(result, json_path, files)
+    if json_path is not None and 'std' in result:   # the JSON in its file: a table for the person on stdout
+        from emla_identification.summary import summary_text
+        write_stdout(summary_text(f'{Path(args.data).name}: {result.get("model", model)} model, '
+                                  f'{result.get("samples", len(recording))} samples',
+                                  result['parameters'], result['std'], result.get('fit', {}),
+                                  result.get('notes', ()), result.get('warnings', ())))
     return 0
 
 
@@ -290,6 +317,7 @@ def _with_effects(structure, recording, args):
 def _greybox(recording, parts, model, forgetting, args):
     from tqdm import tqdm
 
+    from emla_core.sampling import listing
     from emla_identification.greybox import identify
     from emla_identification.streaming import identify_chunks
     points = _points(args, recording, parts) if args.plot or args.trajectory else 1   # else the final one only
@@ -297,12 +325,15 @@ def _greybox(recording, parts, model, forgetting, args):
         with tqdm(total=100, unit='%', desc='identify', file=sys.stderr, leave=False,
                   disable=not sys.stderr.isatty() or len(recording) < PROGRESS_MIN_SAMPLES) as bar:
             result = identify(recording, model, forgetting, points=points,
+                              spring={'auto': None, 'on': True, 'off': False}[args.spring],
                               progress=lambda done: bar.update(round(100 * done) - bar.n))
+        spans = [(segment.start_time, len(segment)) for segment in recording.segments()]
     else:
+        spans = []   # [start s, samples] of each segment, as identify_chunks reads them
         with tqdm(unit=' samples', unit_scale=True, desc='identify', file=sys.stderr, leave=False,
                   disable=not sys.stderr.isatty()) as bar:
             result = identify_chunks(parts, model, forgetting, points=points,
-                                     progress=lambda samples: bar.update(samples - bar.n))
+                                     progress=lambda samples: bar.update(samples - bar.n), spans=spans)
     truth = recording.truth(result.parameters)
     trajectory = result.trajectory
     title = f'{Path(recording.source).name}: {result.model} model'
@@ -311,7 +342,10 @@ def _greybox(recording, parts, model, forgetting, args):
         from emla_identification.model import from_greybox
         identified = from_greybox(result, args.data, _command_line())
     plot = (trajectory.time, trajectory.parameters, trajectory.std, truth, title)
-    return result.to_dict(), plot, identified, trajectory, result.warnings()
+    data = result.to_dict()
+    if len(spans) > 1:   # samples were missing: the record was identified in segments
+        data.update(listing(spans, recording.sample_period))
+    return data, plot, identified, trajectory, result.warnings()
 
 
 def _points(args, recording, parts):

@@ -10,14 +10,20 @@ Data in your own names and units (CSV, MATLAB .mat, rosbag2 directory in MCAP or
   --columns voltage=u_V,current=i_mA,position=x_mm,t=time_ms   which column or MAT variable holds what
   --units current=mA,position=mm,t=ms                           units (a leading minus flips the sign)
   --topics voltage=/u,current=/i,position=/joint_states:position[0]   bag topics of standard messages
+  --start 1.5 --end 4                                            only the part from t = 1.5 s to before 4 s
 Column headers like x_mm, x [mm] or x (mm) give their unit without flags. A CSV file may start with a byte
 order mark (Excel's "CSV UTF-8"), quote its header, and use ';' or tabs with decimal commas: this is seen from
 its first lines, else say it with --delimiter ';' --decimal ','. Timestamps that jitter (by up to 10 % of the
-period) are read at their steady rate; missing samples are named and refused."""
+period) are read at their steady rate. A row repeated exactly (time and values) is dropped with a warning.
+Missing samples (a logger that drops some, a bag's lost frames) are never bridged: the grey-box
+identification takes the record in segments (no row spans a gap; the JSON lists segments and gaps), the other
+commands name the gaps and the part without them to take with --start/--end."""
 JITTER_NOTE = 1e-3  # relative jitter from which the command says on stderr that it read the steady rate
+WINDOW_LIMIT = 1e12  # s: --start and --end (a bag's stamps count from 1970, some 1.7e9 s)
 
 
-def add_data_arguments(parser):
+def add_data_arguments(parser, window=True):
+    """The data flags; `window`: with --start/--end (for a command that reads one record with load_data)."""
     group = parser.add_argument_group('data in your own names and units')
     group.add_argument('--columns', metavar='NAME=SOURCE[,...]',
                        help='CSV column or MAT variable of each signal NAME (t, voltage, current, position, '
@@ -34,6 +40,11 @@ def add_data_arguments(parser):
                        help='delimiter of a CSV file (default: found from its header)')
     group.add_argument('--decimal', choices=('.', ','),
                        help='decimal mark of a CSV file (default: , if the delimiter is not and the rows have one)')
+    if window:
+        add_number(group, '--start', low=-WINDOW_LIMIT, high=WINDOW_LIMIT, unit='s', metavar='S',
+                   help='read the record from t = S s on (its own time axis; default: its start)')
+        add_number(group, '--end', low=-WINDOW_LIMIT, high=WINDOW_LIMIT, unit='s', metavar='E',
+                   help='read the record up to before t = E s (default: to its end)')
 
 
 def foreign(args):
@@ -42,22 +53,27 @@ def foreign(args):
                for flag in ('columns', 'units', 'topics', 'sample_period', 'delimiter', 'decimal'))
 
 
-def load_data(args, path=None):
-    """The Recording of `path` (default: args.data) read with the data flags."""
+def load_data(args, path=None, gaps=False):
+    """The Recording of `path` (default: args.data) read with the data flags; `gaps`: in segments where samples
+    are missing (for the grey-box identification), else such a record is refused (emla_core.data.load)."""
     from emla_core.data import load
     return load(path or args.data, columns=args.columns, units=args.units, topics=args.topics,
-                sample_period=args.sample_period, delimiter=args.delimiter, decimal=args.decimal)
+                sample_period=args.sample_period, delimiter=args.delimiter, decimal=args.decimal, start=args.start,
+                end=args.end, gaps=gaps)
 
 
 def understood(recording, command):
     """{'inputs', 'sampling'} of the JSON where the data were foreign (mapped, converted, jittered or
-    resampled); a note on stderr when the time was read at a steady rate behind jittered stamps, or signals
-    were interpolated. Data in the suite's own names and SI units get neither."""
+    resampled) or reading them dropped rows; a note on stderr when the time was read at a steady rate behind
+    jittered stamps, or signals were interpolated, and a warning for each row dropped (the command's JSON
+    `warnings` take them: reading_warnings). Data in the suite's own names and SI units get neither."""
     sampling = recording.sampling
     jitter = sampling.get('jitter', 0.0)
     plain = all(source.get('source') == name and source.get('scale') == 1.0
                 for name, source in recording.inputs.items())
-    if plain and jitter <= JITTER_NOTE and 'how' not in sampling:
+    for message in reading_warnings(recording):
+        print(f'emla {command}: warning: {message}', file=sys.stderr)
+    if plain and jitter <= JITTER_NOTE and 'how' not in sampling and not reading_warnings(recording):
         return {}
     if jitter > JITTER_NOTE:
         print(f'emla {command}: note: timestamps jitter by up to {jitter:.1%} of the period; read at the steady '
@@ -65,6 +81,11 @@ def understood(recording, command):
     if 'linearly' in sampling.get('how', ''):
         print(f'emla {command}: note: {sampling["how"]}', file=sys.stderr)
     return {'inputs': recording.inputs, 'sampling': sampling}
+
+
+def reading_warnings(recording):
+    """The warnings of reading the record (rows dropped), which `understood` prints."""
+    return list(recording.sampling.get('warnings', ()))
 
 
 def unknown_figures(result, path=''):

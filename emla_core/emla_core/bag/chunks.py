@@ -3,7 +3,6 @@
 The SampleFrames of each MCAP chunk are decoded in one compiled pass: the per-message deserialisation that
 read_bag uses would take longer than the identification of the samples.
 """
-import collections
 from pathlib import Path
 
 import numba
@@ -11,13 +10,12 @@ import numpy as np
 from mcap.reader import make_reader
 
 from emla_core.errors import InputError
-from emla_core.recording import Recording
 from emla_core.topics import NAMESPACE, SAMPLE_FRAME
 
 from .reader import (
     MCAP_ERRORS,
+    FrameAligner,
     bag_files,
-    check_period,
     chunk_data,
     data_cost,
     read_bag,
@@ -33,13 +31,14 @@ _DECODE_BYTES = 1 << 20   # uncompressed chunk data decoded at a time
 
 def iter_chunks(path, signals=None, chunk_samples=1 << 14):
     """read_bag(path).recording as consecutive Recordings of `chunk_samples` samples (the last one shorter),
-    decoded and aligned as the MCAP chunks are read: memory holds a part, not the record.
+    decoded and aligned as the MCAP chunks are read: memory holds a part, not the record. A part never spans a
+    gap of the record (frames missing): the one after it is shorter, and its start_time says where it goes on.
 
     signals: the names the parts carry (default: all); all of the bag's signals are aligned, as read_bag does.
     Each signal's frames must be stored in time order (the suite stores frames at their stamps), where read_bag
     also accepts them shuffled. A file without a summary and chunk index (e.g. a bare .mcap whose writer was
-    killed) is read whole by read_bag and comes as one part. A corrupt chunk is skipped as read_bag skips it, and
-    the data it cost are named as read_bag names them.
+    killed) is read whole by read_bag and comes as one part (a part per segment). A corrupt chunk is skipped as
+    read_bag skips it, and the data it cost are named as read_bag names them.
     """
     if isinstance(chunk_samples, bool) or not isinstance(chunk_samples, int) or chunk_samples < 1:
         raise ValueError(f'chunk_samples must be a positive integer, got {chunk_samples!r}')
@@ -49,132 +48,34 @@ def iter_chunks(path, signals=None, chunk_samples=1 << 14):
     if layouts is None:
         recording = read_bag(path).recording
         recording.signals = {k: v for k, v in recording.signals.items() if signals is None or k in signals}
-        yield recording
+        yield from recording.segments()
         return
     names = sorted({topic[len(NAMESPACE):] for _, channels in layouts for topic in channels.values()})
     if not names:
         raise InputError(f'{path}: no SampleFrame messages under {NAMESPACE}: the bag holds no samples')
-    aligner = _Aligner(path, names, names if signals is None else [n for n in names if n in signals],
-                       chunk_samples, custom)
+    aligner = FrameAligner(path, names, names if signals is None else [n for n in names if n in signals],
+                           chunk_samples, custom)
     skipped = []
     with reporting_skipped(skipped):
         for file, channels in layouts:
             slot_of_channel = np.full(max(channels, default=0) + 1, -1, dtype=np.int64)
             for channel, topic in channels.items():
                 slot_of_channel[channel] = names.index(topic[len(NAMESPACE):])
-            for frames in _decoded_chunks(file, slot_of_channel, len(names), skipped.append):
-                yield from aligner.add(*frames)
+            for slot_of, stamps, periods, lengths, values, starts in _decoded_chunks(
+                    file, slot_of_channel, len(names), skipped.append):
+                for slot, name in enumerate(names):
+                    mine = slot_of == slot
+                    if mine.any():
+                        aligner.frames(name, stamps[mine], periods[mine], lengths[mine],
+                                       values[starts[slot]:starts[slot + 1]])
+                yield from aligner.parts()
         yield from aligner.finish()
     spans = {n: (aligner.start[n], aligner.end[n]) for n in aligner.names}
     if skipped:
-        warn_cost(data_cost(path, spans, aligner.period, [n for n in names if n not in aligner.start]))
+        warn_cost(data_cost(path, spans, aligner.period, [n for n in names if n not in aligner.start], aligner.gaps,
+                            aligner.start_time))
     else:   # a signal that begins late or ends early, as read_bag warns of it
         warn_cost(short_signals(path, spans, aligner.period, aligner.frame))
-
-
-class _Aligner:
-    """Frames of each signal, checked for gaps and overlaps as read_bag checks them, cut to the time span all
-    signals share (read_bag's first and last) and handed out in parts as soon as every signal has them."""
-
-    def __init__(self, path, names, wanted, chunk_samples, metadata):
-        self.path, self.names, self.chunk_samples, self.metadata = path, names, chunk_samples, metadata
-        self.period = None
-        self.start, self.end = {}, {}                   # ns: first stamp, stamp the next frame must have
-        self.received = dict.fromkeys(names, 0)          # samples
-        self.frame = 1                                   # samples of the longest frame
-        self.queues = {name: _Queue() for name in wanted}
-        self.first = None                                # the shared start, once every signal has begun
-        self.offsets = {}                                # samples of each signal before it
-        self.emitted = 0
-
-    def add(self, slot_of, stamps, periods, lengths, values, starts):
-        """The parts complete after one decoded MCAP chunk."""
-        for slot, name in enumerate(self.names):
-            mine = slot_of == slot
-            if mine.any():
-                self._frames(name, stamps[mine], periods[mine], lengths[mine])
-                if name in self.queues:
-                    self.queues[name].push(values[starts[slot]:starts[slot + 1]])
-        return self._parts(final=False)
-
-    def finish(self):
-        # A signal without frames (all in skipped chunks, or counted by a summary only) is absent, as from read_bag.
-        self.names = [name for name in self.names if name in self.start]
-        if not self.names:
-            raise InputError(f'{self.path}: no SampleFrame messages under {NAMESPACE}: the bag holds no samples')
-        self.queues = {name: queue for name, queue in self.queues.items() if name in self.start}
-        return self._parts(final=True)
-
-    def _frames(self, name, stamps, periods, lengths):
-        if self.period is None:
-            self.period = float(periods[0])
-            check_period(self.path, self.period)
-        if np.any(periods != self.period):
-            different = sorted({self.period, *periods.tolist()})
-            raise InputError(f'{self.path}: frames have different sample periods {different}')
-        durations = np.rint(lengths * self.period * 1e9).astype(np.int64)  # round(len(data) * period * 1e9)
-        expected = np.concatenate(([self.end.get(name, stamps[0])], stamps[:-1] + durations[:-1]))
-        bad = np.abs(stamps - expected) > 0.5 * self.period * 1e9
-        if bad.any():
-            stamp = stamps[np.argmax(bad)]
-            raise InputError(f'{self.path}: /emla/{name} has a gap or overlap at t = {stamp * 1e-9:.6f} s')
-        self.start.setdefault(name, int(stamps[0]))
-        self.end[name] = int(stamps[-1] + durations[-1])
-        self.received[name] += int(lengths.sum())
-        self.frame = max(self.frame, int(lengths.max()))
-
-    def _parts(self, final):
-        if self.first is None:
-            if len(self.start) < len(self.names):
-                return
-            self.first = max(self.start.values())
-            self.offsets = {n: round((self.first - self.start[n]) * 1e-9 / self.period) for n in self.names}
-            for name, queue in self.queues.items():
-                queue.drop(self.offsets[name])
-        last = min(self.end.values())
-        if final and last <= self.first:
-            raise InputError(f'{self.path}: the signal topics share no time span')
-        total = max(0, round((last - self.first) * 1e-9 / self.period))  # read_bag's n, or a lower bound of it
-        if not final:
-            total = min([total] + [self.received[n] - self.offsets[n] for n in self.names])
-        while total - self.emitted >= self.chunk_samples:
-            yield self._part(self.chunk_samples)
-        if final and (total > self.emitted or not self.emitted):  # the rest; an empty record as one empty part
-            yield self._part(total - self.emitted)
-
-    def _part(self, size):
-        part = Recording(sample_period=self.period, signals={name: q.take(size) for name, q in self.queues.items()},
-                         start_time=self.first * 1e-9 + self.emitted * self.period, source=str(self.path),
-                         metadata=self.metadata)
-        self.emitted += size
-        return part
-
-
-class _Queue:
-    """Samples of one signal waiting to be handed out: arrays in arrival order."""
-
-    def __init__(self):
-        self._arrays, self._skip = collections.deque(), 0
-
-    def push(self, values):
-        self._arrays.append(values)
-
-    def drop(self, n):
-        self._skip += n
-
-    def take(self, n):
-        parts = []
-        while n > 0 and self._arrays:
-            head = self._arrays[0]
-            if self._skip >= len(head):
-                self._skip -= len(head)
-                self._arrays.popleft()
-                continue
-            piece = head[self._skip:self._skip + n]
-            parts.append(piece)
-            n -= len(piece)
-            self._skip += len(piece)
-        return parts[0] if len(parts) == 1 else np.concatenate(parts) if parts else np.empty(0)
 
 
 def _signal_channels(files):

@@ -3,13 +3,16 @@ iter_serialized, bag_topics.
 
 A file with a chunk index is read chunk by chunk, and a corrupt chunk (its record, decompression or CRC fails)
 is skipped and described (CorruptChunk: its file, number and the time span of its messages). read_bag and
-iter_chunks name it in the error its loss may cause (a gap in a signal, ...), else in a warning once done
-(logging, one line), followed by one that names the measured data it cost (data_cost). A signal whose samples
-begin later or end earlier than the others' by more than a frame (its recorder stopped early, a topic's messages
-cut off) is warned of in the same way (short_signals): the record is the span all signals share. A file without a chunk
-index is read straight through, and any damage refuses it. A bag's metadata.yaml is checked before any file it
-names is opened (bag_info): hostile metadata, files outside the bag, devices and FIFOs are refused in one line.
+iter_chunks name it in the error its loss may cause, else in a warning once done (logging, one line), followed by
+one that names the measured data it cost (data_cost). A signal whose samples begin later or end earlier than the
+others' by more than a frame (its recorder stopped early, a topic's messages cut off) is warned of in the same way
+(short_signals): the record is the span all signals share. Frames missing inside it (a message lost, a skipped
+chunk's) leave the record in segments (Recording.gaps, emla_core.sampling): FrameAligner puts the signals' frames
+together for both readers. A file without a chunk index is read straight through, and any damage refuses it. A
+bag's metadata.yaml is checked before any file it names is opened (bag_info): hostile metadata, files outside the
+bag, devices and FIFOs are refused in one line.
 """
+import bisect
 import collections
 import contextlib
 import heapq
@@ -37,6 +40,7 @@ from emla_core.errors import InputError
 from emla_core.files import regular_file
 from emla_core.messages import effect_values, estimate_std, estimate_values, read_frame_cdr
 from emla_core.recording import Recording
+from emla_core.sampling import MAX_GAPS, check_gaps, gap_time, shared
 from emla_core.topics import (
     EFFECT_ESTIMATE,
     EFFECTS_TOPIC,
@@ -93,7 +97,7 @@ def warn_skipped(chunk):
     log.warning('warning: skipped the %s', chunk)
 
 
-def data_cost(path, spans, period, absent=()):
+def data_cost(path, spans, period, absent=(), gaps=(), start=0.0):
     """The warning (one line) of the measured data that skipped chunks cost a record cut to the time span all
     its signals share; None if they cost none.
 
@@ -107,12 +111,14 @@ def data_cost(path, spans, period, absent=()):
         The sample period in s.
     absent : sequence of str, optional
         Signals of the bag of which no sample was read.
+    gaps : sequence, optional
+        The record's gaps (Recording.gaps) inside that span, of a record from `start` (s).
 
     Returns
     -------
     str or None
         Each signal's loss: where it has no samples that another one has ('lost'), and where it has samples
-        outside the span all share ('cut'), from when to when and how many samples.
+        outside the span all share ('cut'), from when to when and how many samples; the gaps left inside it.
     """
     first, last = max(s for s, _ in spans.values()), min(e for _, e in spans.values())
     low, high = min(s for s, _ in spans.values()), max(e for _, e in spans.values())
@@ -122,10 +128,15 @@ def data_cost(path, spans, period, absent=()):
             samples = round((b - a) * 1e-9 / period)
             if samples > 0:
                 losses.append(f'{name} {how} from t = {a * 1e-9:.6f} to {b * 1e-9:.6f} s ({samples} samples)')
+    terms = ' (lost: not read; cut: read, but outside the time span all signals share)' if losses else ''
+    for j, (_, missing) in enumerate(gaps):
+        after = gap_time(gaps, j, start, period)
+        losses.append(f'a gap from t = {after + period:.6f} to {after + (missing + 1) * period:.6f} s ({missing} '
+                      f'samples; the record is in segments)')
     if not losses:
         return None
-    return (f'{path}: the skipped chunks cost measured data: {"; ".join(losses)} (lost: not read; cut: read, but '
-            f'outside the time span all signals share)')
+    return f'{path}: the skipped chunks cost measured data: {"; ".join(losses)}{terms}'
+
 
 
 def short_signals(path, spans, period, frame=1):
@@ -497,7 +508,7 @@ def read_bag(path):
     if skipped:
         absent = [topic[len(NAMESPACE):] for topic, msgtype in bag_topics(path).items()
                   if msgtype == SAMPLE_FRAME and topic.startswith(NAMESPACE) and topic[len(NAMESPACE):] not in frames]
-        warn_cost(data_cost(path, spans, recording.sample_period, absent))
+        warn_cost(data_cost(path, spans, recording.sample_period, absent, recording.gaps, recording.start_time))
     else:   # (the skipped chunks' cost names any cut too)
         warn_cost(short_signals(path, spans, recording.sample_period,
                                 max(len(data) for fs in frames.values() for _, _, data in fs)))
@@ -519,33 +530,166 @@ def check_period(path, period):
 
 
 def _assemble(frames, path, custom):
-    """Concatenate each signal's frames and cut all signals to the time span they share: the Recording and
-    {signal: (first stamp, end) ns} of the frames read."""
-    periods = {p for fs in frames.values() for _, p, _ in fs}
-    if len(periods) != 1:
-        raise InputError(f'{path}: frames have different sample periods {sorted(periods)}')
-    period = periods.pop()
-    check_period(path, period)
-    series = {}
-    for name, fs in sorted(frames.items()):  # in the order iter_chunks checks them, to name the same gap
-        fs.sort(key=lambda f: f[0])
-        start = fs[0][0]
-        expected = start
-        for stamp, _, data in fs:
-            if abs(stamp - expected) > 0.5 * period * 1e9:
-                raise InputError(f'{path}: /emla/{name} has a gap or overlap at t = {stamp * 1e-9:.6f} s')
-            expected = stamp + round(len(data) * period * 1e9)
-        series[name] = (start, np.concatenate([d for _, _, d in fs]))
-    spans = {name: (start, start + round(len(data) * period * 1e9)) for name, (start, data) in series.items()}
-    first, last = max(s for s, _ in spans.values()), min(e for _, e in spans.values())
-    if last <= first:
-        raise InputError(f'{path}: the signal topics share no time span')
-    n = round((last - first) * 1e-9 / period)
-    signals = {}
-    for name, (start, data) in series.items():
-        offset = round((first - start) * 1e-9 / period)
-        signals[name] = data[offset:offset + n]
-    return Recording(sample_period=period, signals=signals, start_time=first * 1e-9, source=str(path),
-                     metadata=custom), spans
+    """The Recording of each signal's frames [(stamp ns, period s, samples)], cut to the places all signals have
+    samples at (FrameAligner), and {signal: (first stamp, end) ns} of the frames read."""
+    names = sorted(frames)  # in the order iter_chunks checks them, to name the same gap
+    aligner = FrameAligner(path, names, names, None, custom)
+    for name in names:
+        fs = sorted(frames[name], key=lambda f: f[0])
+        aligner.frames(name, np.array([f[0] for f in fs], dtype=np.int64), np.array([f[1] for f in fs]),
+                       np.array([len(f[2]) for f in fs], dtype=np.int64), np.concatenate([f[2] for f in fs]))
+    parts = list(aligner.finish())
+    signals = {name: np.concatenate([part.signals[name] for part in parts]) for name in names}
+    spans = {name: (aligner.start[name], aligner.end[name]) for name in names}
+    return Recording(sample_period=aligner.period, signals=signals, start_time=parts[0].start_time, source=str(path),
+                     metadata=custom, gaps=tuple(aligner.gaps)), spans
 
 
+class FrameAligner:
+    """Frames of each signal, checked for overlaps, put on one grid of places (sample periods from the latest
+    signal's first sample: read_bag's start) and handed out in parts of the places all signals have samples at,
+    as soon as every signal has them. A part never spans a gap (frames missing from any signal): the next part's
+    start_time says where the record goes on, and `gaps` are the record's (Recording.gaps) as handed out."""
+
+    def __init__(self, path, names, wanted, chunk_samples, metadata):
+        """names: the signals aligned; wanted: those the parts carry; chunk_samples: the longest part (None:
+        a whole segment)."""
+        self.path, self.names, self.chunk_samples, self.metadata = path, names, chunk_samples, metadata
+        self.period = None
+        self.start, self.end = {}, {}                    # ns: first stamp, stamp the next frame must have
+        self.runs = {name: [] for name in names}         # [first place, end place, samples before] of its own
+                                                         # places (0 at its first sample), in time order
+        self.received = dict.fromkeys(names, 0)          # samples
+        self.frame = 1                                   # samples of the longest frame
+        self.queues = {name: _Queue() for name in wanted}
+        self.taken = dict.fromkeys(wanted, 0)            # samples of each queue handed out or dropped
+        self.first = None                                # the shared start (ns), once every signal has begun
+        self.offsets = {}                                # of each signal's places from the shared start's
+        self.cursor = 0                                  # places before it are handed out or not shared
+        self.emitted, self.gaps, self._end = 0, [], None  # samples handed out, their gaps, the place after them
+        self.start_time = None                           # s: of the first sample handed out
+
+    def frames(self, name, stamps, periods, lengths, values):
+        """Take frames of signal `name` in time order (stamps ns, sample periods s, lengths) and their samples."""
+        if self.period is None:
+            self.period = float(periods[0])
+            check_period(self.path, self.period)
+        if np.any(periods != self.period):
+            different = sorted({self.period, *periods.tolist()})
+            raise InputError(f'{self.path}: frames have different sample periods {different}')
+        step = self.period * 1e9
+        durations = np.rint(lengths * step).astype(np.int64)  # round(len(data) * period * 1e9)
+        late = stamps - np.concatenate(([self.end.get(name, stamps[0])], stamps[:-1] + durations[:-1]))
+        if np.any(late < -0.5 * step):
+            stamp = stamps[np.argmax(late < -0.5 * step)]
+            raise InputError(f'{self.path}: /emla/{name} has an overlap at t = {stamp * 1e-9:.6f} s (a frame that '
+                             f'begins before the one before it ends)')
+        missing = np.where(late > 0.5 * step, np.rint(late / step), 0).astype(np.int64)
+        runs, within = self.runs[name], np.concatenate(([0], np.cumsum(lengths[:-1])))
+        begins = (runs[-1][1] if runs else 0) + np.cumsum(missing) + within
+        ends = begins + lengths
+        breaks = np.flatnonzero(missing > 0) if runs else np.union1d([0], np.flatnonzero(missing > 0))
+        if not len(breaks) or breaks[0] > 0:   # the first frames go on from the last run
+            runs[-1][1] = int(ends[(breaks[0] if len(breaks) else len(stamps)) - 1])
+        for j, stop in zip(breaks, [*breaks[1:], len(stamps)]):
+            runs.append([int(begins[j]), int(ends[stop - 1]), self.received[name] + int(within[j])])
+        self.start.setdefault(name, int(stamps[0]))
+        self.end[name] = int(stamps[-1] + durations[-1])
+        self.received[name] += int(lengths.sum())
+        self.frame = max(self.frame, int(lengths.max()))
+        if name in self.queues:
+            self.queues[name].push(values)
+
+    def parts(self, final=False):
+        """The parts complete so far (final: all that are left; an empty record as one empty part)."""
+        if self.first is None:
+            if len(self.start) < len(self.names):
+                return
+            self.first = max(self.start.values())
+            self.offsets = {n: round((self.first - self.start[n]) * 1e-9 / self.period) for n in self.names}
+        if final and min(self.end.values()) <= self.first:
+            raise InputError(f'{self.path}: the signal topics share no time span')
+        frontier = min(self.runs[n][-1][1] - self.offsets[n] for n in self.names)  # every signal's runs are known
+        size = self.chunk_samples or math.inf                                       # before it
+        runs = {n: [(max(a - self.offsets[n], self.cursor), min(b - self.offsets[n], frontier))
+                    for a, b, _ in self.runs[n]] for n in self.names}
+        for a, b in shared(runs):
+            closed = final or b < frontier   # no sample will join it
+            while b - a >= size or (closed and a < b):
+                n = min(size, b - a)
+                yield self._part(a, n)
+                a += n
+            if not closed:
+                self.cursor = a
+                break
+        else:
+            self.cursor = max(self.cursor, frontier)
+        for n in self.names:   # runs before the cursor are done with (the last one goes on)
+            done = [r for r in self.runs[n][:-1] if r[1] - self.offsets[n] <= self.cursor]
+            del self.runs[n][:len(done)]
+        if final and not self.emitted:
+            yield Recording(sample_period=self.period, signals={name: np.empty(0) for name in self.queues},
+                            start_time=self.first * 1e-9, source=str(self.path), metadata=self.metadata)
+
+    def finish(self):
+        """The last parts. A signal without frames (all in skipped chunks, or counted by a summary only) is
+        absent, as from read_bag."""
+        self.names = [name for name in self.names if name in self.start]
+        if not self.names:
+            raise InputError(f'{self.path}: no SampleFrame messages under {NAMESPACE}: the bag holds no samples')
+        self.queues = {name: queue for name, queue in self.queues.items() if name in self.start}
+        yield from self.parts(final=True)
+        check_gaps(self.path, self.gaps, self.emitted, self.start_time, self.period)
+
+    def _part(self, place, size):
+        """The part of `size` samples from the shared `place`."""
+        if self._end is None:
+            self.start_time = self.first * 1e-9 + place * self.period
+        elif place > self._end:
+            self.gaps.append((self.emitted, place - self._end))
+            if len(self.gaps) > MAX_GAPS:
+                check_gaps(self.path, self.gaps, self.emitted, self.start_time, self.period)
+        signals = {}
+        for name, queue in self.queues.items():
+            at = self._sample(name, place)
+            queue.drop(at - self.taken[name])
+            signals[name] = queue.take(size)
+            self.taken[name] = at + size
+        part = Recording(sample_period=self.period, signals=signals, start_time=self.first * 1e-9 + place * self.period,
+                         source=str(self.path), metadata=self.metadata)
+        self.emitted += size
+        self._end = place + size
+        return part
+
+    def _sample(self, name, place):
+        """The number of a signal's sample at a shared place (which its runs cover)."""
+        runs, local = self.runs[name], place + self.offsets[name]
+        a, _, before = runs[bisect.bisect_right([r[0] for r in runs], local) - 1]
+        return before + local - a
+
+
+class _Queue:
+    """Samples of one signal waiting to be handed out: arrays in arrival order."""
+
+    def __init__(self):
+        self._arrays, self._skip = collections.deque(), 0
+
+    def push(self, values):
+        self._arrays.append(values)
+
+    def drop(self, n):
+        self._skip += n
+
+    def take(self, n):
+        parts = []
+        while n > 0 and self._arrays:
+            head = self._arrays[0]
+            if self._skip >= len(head):
+                self._skip -= len(head)
+                self._arrays.popleft()
+                continue
+            piece = head[self._skip:self._skip + n]
+            parts.append(piece)
+            n -= len(piece)
+            self._skip += len(piece)
+        return parts[0] if len(parts) == 1 else np.concatenate(parts) if parts else np.empty(0)

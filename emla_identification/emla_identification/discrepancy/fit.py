@@ -268,7 +268,7 @@ def greybox_start(data):
     model = 'mechanical' if data.kinds == ('force',) else 'full'
     try:
         result = identify(Recording(data.sample_period, dict(data.signals), source=data.source), model=model,
-                          points=1)
+                          points=1, spring=False)   # the workflow names a spring itself (candidates.py)
     except InputError as error:
         reason = str(error).removeprefix(f'{data.source}: ')
         raise InputError(f'{data.source}: the nominal model cannot be identified: {reason}') from None

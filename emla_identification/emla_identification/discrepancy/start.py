@@ -41,7 +41,7 @@ def rescue_starts(data, candidates):
         moved = variant.realigned(data)
         try:
             result = identify(Recording(data.sample_period, dict(moved.signals), source=data.source),
-                              model='mechanical' if data.kinds == ('force',) else 'full', points=1)
+                              model='mechanical' if data.kinds == ('force',) else 'full', points=1, spring=False)
         except InputError:
             continue
         out.append((f'{candidate.name} {variant.settings()}', result.parameters, [variant]))

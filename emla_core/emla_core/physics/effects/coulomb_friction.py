@@ -12,6 +12,8 @@ from ..online import OnlineColumn
 PARAMETERS = (Parameter('coulomb_force', 'N', 1.0, lower=0.0, doc='friction level Fc'),
               Parameter('presliding_damping', 'N s/m', 0.0, lower=0.0,
                         doc='sigma1, the damping of the stuck contact within its pre-sliding band (LuGre)'))
+SETTINGS = (Parameter('presliding_displacement', 'm', 0.0, lower=0.0,
+                      doc='delta, the pre-sliding band of an elastic stuck contact (0: the part sticks rigidly)'),)
 SLIDING_SPEED = 0.1  # m/s: online rows slower than this are skipped (see `_online_force`)
 PIECES = 8           # parts of each sample interval over which the candidate follows the contact (`contact`)
 
@@ -147,10 +149,20 @@ class CoulombFriction(Effect):
 
     name: ClassVar[str] = 'coulomb_friction'
     parameters: ClassVar[tuple] = PARAMETERS
+    settings: ClassVar[tuple] = SETTINGS
     candidate: ClassVar[type] = _Candidate
     online: ClassVar[object] = OnlineColumn('coulomb_force', _online_force)
     coulomb_force: float = 1.0
-    presliding_damping: float = 0.0   # the plant sticks rigidly: no pre-sliding motion for it to damp
+    presliding_damping: float = 0.0        # damps the elastic contact's pre-sliding motion
+    presliding_displacement: float = 0.0   # 0: the part sticks rigidly (equations.friction_force)
+
+    @classmethod
+    def from_model(cls, values, settings):
+        """The friction of a model file's entry: its contact elastic within the pre-sliding band where the entry
+        says it does not stick rigidly (`rigid_sticking: false`); rigid otherwise (a file without the key too)."""
+        if settings.get('rigid_sticking', True):
+            settings = {k: v for k, v in settings.items() if k != 'presliding_displacement'}
+        return super().from_model(values, settings)
 
     def friction_level(self) -> float:
         return self.coulomb_force

@@ -7,7 +7,7 @@ import numpy as np
 
 from ..candidate import Candidate, of_effect
 from ..effect import Effect, Parameter, register_effect
-from ..online import TRIANGLE, OnlineColumn
+from ..online import StiffnessColumn
 
 PARAMETERS = (Parameter('spring_stiffness', 'N/m', 2000.0,
                         doc='k; negative: a magnetic stiffness, a force growing toward the pole'),)
@@ -40,12 +40,6 @@ class _Candidate(Candidate):
         return 'magnetic_stiffness' if values[0] < 0 else self.name
 
 
-def _online_force(x, sample_period):
-    """k x at the triangle-weighted position: the centre's -k x_c merges with the load force, so online the
-    load force is the total at x = 0 and the centre 0."""
-    return TRIANGLE[1] * x[1] + TRIANGLE[2] * x[2] + TRIANGLE[3] * x[3], None
-
-
 @register_effect
 @dataclasses.dataclass(frozen=True)
 class ReturnSpring(Effect):
@@ -55,7 +49,8 @@ class ReturnSpring(Effect):
     parameters: ClassVar[tuple] = PARAMETERS
     settings: ClassVar[tuple] = SETTINGS
     candidate: ClassVar[type] = _Candidate
-    online: ClassVar[object] = OnlineColumn('spring_stiffness', _online_force, {'position': -TRIANGLE})
+    # online the centre's -k x_c merges with the load force: the load force is the total at x = 0
+    online: ClassVar[object] = StiffnessColumn('spring_stiffness')
     spring_stiffness: float = 2000.0
     spring_center: float = 0.0
 
