@@ -379,9 +379,7 @@ def _in_range(raw, scale, source, what, row, first):
 def _match(table, explicit, source, skip=()):
     """{signal: column}: the explicit ones, then columns whose name (unit aside) is the signal's or an alias
     (not for the signals in `skip`)."""
-    for signal, column in explicit.items():
-        if column not in table:
-            raise InputError(f'{source}: --columns {signal}={column}: no such column (has {", ".join(table)})')
+    explicit = {signal: _column_named(table, column, signal, source) for signal, column in explicit.items()}
     chosen = dict(explicit)
     for column in table:
         if column in explicit.values():
@@ -396,15 +394,32 @@ def _match(table, explicit, source, skip=()):
     return chosen
 
 
-def as_recording(data=None, *, sample_period=None, start_time=0.0, gaps=False, **signals):
+def _column_named(table, column, signal, source):
+    """The column of `table` called `column`, or whose header is `column` with its unit (U_coil for
+    'U_coil [V]'); InputError listing the columns when none or more than one is."""
+    if column in table:
+        return column
+    matches = [name for name in table if split_header(name)[0] == column]
+    if len(matches) == 1:
+        return matches[0]
+    raise InputError(f'{source}: --columns {signal}={column}: '
+                     + (f'{" and ".join(matches)} both match' if matches else 'no such column')
+                     + f' (has {", ".join(table)})')
+
+
+def as_recording(data=None, *, sample_period=None, start_time=0.0, gaps=False, time=None, **signals):
     """The Recording that `data` or the arrays `signals` describe: what the suite's functions accept as data.
 
     Parameters
     ----------
-    data : Recording, str, Path or None
-        A Recording (returned as it is), a file or bag to `load`, or None to build one from `signals`.
+    data : Recording, str, Path, pandas.DataFrame or None
+        A Recording (returned as it is), a file or bag to `load`, a table of columns as a CSV file holds them
+        (a DataFrame or {name: array}: headers with or without their unit, a time column `t` or `time` in s or
+        `sample_period`), or None to build one from `signals`.
     sample_period : float, optional
-        Sample period in s of the arrays; required with `signals`.
+        Sample period in s of the arrays; required with `signals` unless `time` is given.
+    time : array_like, optional
+        The samples' times in s (a steady rate; jitter, gaps and repeated rows as in a CSV file's time column).
     start_time : float, optional
         Time of the first sample, s.
     gaps : bool, optional
@@ -423,9 +438,16 @@ def as_recording(data=None, *, sample_period=None, start_time=0.0, gaps=False, *
     """
     given = {name: values for name, values in signals.items() if values is not None}
     if data is not None:
-        if given:
-            raise InputError(f'give either data or signal arrays, not both (got data and {", ".join(given)})')
-        return data if isinstance(data, Recording) else load(data, gaps=gaps)
+        if given or time is not None:
+            raise InputError(f'give either data or signal arrays, not both (got data and '
+                             f'{", ".join(given) or "time"})')
+        if isinstance(data, Recording):
+            return data
+        if hasattr(data, 'columns') or isinstance(data, dict):   # a DataFrame, or {column: array}
+            return _from_table(data, sample_period, gaps)
+        return load(data, gaps=gaps)
+    if time is not None:
+        return _from_table(dict(given, t=time), sample_period, gaps)
     unknown = sorted(set(given) - set(SIGNAL_NAMES))
     if unknown:
         raise InputError(f'unknown signal(s) {", ".join(unknown)}; known: {", ".join(SIGNAL_NAMES)}')
@@ -437,3 +459,16 @@ def as_recording(data=None, *, sample_period=None, start_time=0.0, gaps=False, *
     arrays = {name: np.asarray(values, dtype=float).reshape(-1) for name, values in given.items()}
     return Recording(sample_period=float(sample_period), signals=arrays, start_time=float(start_time),
                      source='arrays')
+
+
+def _from_table(table, sample_period, gaps):
+    """as_recording of a table {column: array} or a DataFrame, read as a CSV file's columns (from_columns)."""
+    names = [str(name) for name in table.keys()]
+    if 'time' in names and 't' not in names:
+        table = {('t' if str(k) == 'time' else str(k)): v for k, v in table.items()}
+    columns = {str(name): np.asarray(table[name], dtype=float).reshape(-1) for name in table.keys()}
+    recording = from_columns(columns, 'table', sample_period=sample_period)
+    if recording.gaps and not gaps:
+        raise InputError(f'table: samples are missing at {len(recording.gaps)} place(s); this command does not '
+                         f'take a record in segments')
+    return recording

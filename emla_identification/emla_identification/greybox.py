@@ -117,7 +117,7 @@ class GreyBoxResult:
 def identify(data: Recording | Path | str | None = None, model: str | None = None, forgetting: float = 1.0, *,
              memory_time: float | None = None, sample_period: float | None = None, voltage: ArrayLike | None = None,
              current: ArrayLike | None = None, position: ArrayLike | None = None, force: ArrayLike | None = None,
-             velocity: ArrayLike | None = None,
+             velocity: ArrayLike | None = None, time: ArrayLike | None = None,
              initial_covariance: float = 1e6, points: int = 200, spring: bool | None = None,
              progress: Callable[[float], object] | None = None) -> GreyBoxResult:
     """Identify the physical parameters of an actuator from a whole record of its signals.
@@ -129,9 +129,10 @@ def identify(data: Recording | Path | str | None = None, model: str | None = Non
 
     Parameters
     ----------
-    data : Recording, str or Path, optional
-        The record: a Recording (emla_core.Recording), or a CSV file or ROS 2 bag to load. Leave it out to
-        pass the signals as arrays instead.
+    data : Recording, str, Path or pandas.DataFrame, optional
+        The record: a Recording (emla_core.Recording), a CSV file or ROS 2 bag to load, or a DataFrame of
+        columns as a CSV file holds them (headers with their units, such as x_mm, and a time column t or time).
+        Leave it out to pass the signals as arrays instead.
     model : {'full', 'electrical', 'mechanical'}, optional
         Which parameters to report: all six, R, L, Km only, or m, B, Fl only. Each needs voltage, current
         and position; mechanical also works from force and position alone. Default: full with coil signals,
@@ -141,11 +142,14 @@ def identify(data: Recording | Path | str | None = None, model: str | None = Non
     memory_time : float, optional
         Memory time constant tau in s instead of `forgetting` (lambda = 1 - Ts / tau).
     sample_period : float, optional
-        Sample period Ts in s of the arrays (required with arrays; a Recording or file carries its own).
+        Sample period Ts in s of the arrays (required with arrays unless `time` is given; a Recording or file
+        carries its own).
     voltage, current, position, force, velocity : array_like, optional
         Uniformly sampled signals of equal length in V, A, m, N and m/s: the coil voltage as applied over each
         sample interval (held), the coil current and the position at the interval's start. A velocity (a
         tachometer's, sampled like the current) serves in place of the position.
+    time : array_like, optional
+        The arrays' sample times in s, in place of `sample_period` (jitter and gaps read as in a CSV file).
     initial_covariance : float, optional
         Prior covariance of the regression coefficients (P0 = c I).
     points : int, optional
@@ -181,7 +185,7 @@ def identify(data: Recording | Path | str | None = None, model: str | None = Non
     (4.0, 0.036)
     """
     recording = as_recording(data, sample_period=sample_period, voltage=voltage, current=current,
-                             position=position, force=force, velocity=velocity, gaps=True)
+                             position=position, force=force, velocity=velocity, time=time, gaps=True)
     model, kinds, lam = checked(recording, model, forgetting, memory_time)
     scales = unit_scales(recording)
     report = progress or (lambda done: None)
