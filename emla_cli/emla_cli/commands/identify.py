@@ -5,6 +5,7 @@ description().
 Records of 2^20 samples or more are identified part by part, in bounded memory: a bag is then never held whole
 (streaming.read_record); the estimates equal the whole-record ones to rounding. The grey-box models take a record
 with missing samples in segments (the JSON's "segments" and "gaps"); the others refuse it (inputs.load_data)."""
+import contextlib
 import sys
 from pathlib import Path
 
@@ -56,12 +57,12 @@ result is the same. A record with missing samples (a logger that dropped some, a
 identified in segments by the grey-box models: no regression row spans a gap, every segment's rows feed the one
 estimate, and the JSON lists the "segments" (start, end s, samples) and "gaps" (start, end s, missing samples);
 the fit is checked on the longest segment (with forgetting: the last); --start/--end take a part of a record.
-The JSON goes to stdout unless --json FILE is given (then a summary table does; --json - keeps the JSON); --plot draws the estimates converging
-(and the true values, when a simulated bag carries them); --trajectory writes the estimates over time as CSV
-(time, then each parameter and its _std, SI units; with forgetting they follow a drifting plant), one row per
---trajectory-interval (default: about 200 rows). With --model-file the structure of a model file
-(from `emla discrepancy --model-out`: the nominal model with
-the effects found) is identified on DATA, effects' parameters included; --model-out writes what was
+The JSON goes to stdout unless --json FILE is given (then a summary table does; --json - keeps the JSON);
+--plot draws the estimates converging (and the true values, when a simulated bag carries them); --trajectory
+writes the estimates over time as CSV (time, then each parameter and its _std, SI units; with forgetting
+they follow a drifting plant), one row per --trajectory-interval (default: about 200 rows). With --model-file
+the structure of a model file (from `emla discrepancy --model-out`: the nominal model with the effects found)
+is identified on DATA, effects' parameters included; --model-out writes what was
 identified as a model file for the other commands. Data that look read in the wrong units or signs (a
 current in mA, a voltage in mV, a time in ms, a position in mm; a sensor mounted the other way, named by its
 root cause) are warned about on stderr with the flag that fixes it, and listed under "warnings" in the JSON;
@@ -178,10 +179,11 @@ def run(args):
     emit_json(result, json_path, files)
     if json_path is not None and 'std' in result:   # the JSON in its file: a table for the person on stdout
         from emla_identification.summary import summary_text
-        write_stdout(summary_text(f'{Path(args.data).name}: {result.get("model", model)} model, '
-                                  f'{result.get("samples", len(recording))} samples',
-                                  result['parameters'], result['std'], result.get('fit', {}),
-                                  result.get('notes', ()), result.get('warnings', ())))
+        with contextlib.suppress(InputError):   # a closed stdout: the result is in its file all the same
+            write_stdout(summary_text(f'{Path(args.data).name}: {result.get("model", model)} model, '
+                                      f'{result.get("samples", len(recording))} samples',
+                                      result['parameters'], result['std'], result.get('fit', {}),
+                                      result.get('notes', ()), result.get('warnings', ())))
     return 0
 
 
