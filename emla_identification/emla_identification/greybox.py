@@ -229,12 +229,16 @@ def _sprung(recording, model, kinds, lam, initial_covariance, points, report, sp
     return out
 
 
-def _sound(final):
-    """Whether a final estimate is physical (R, L, m positive) and its mechanical equation fits the data."""
+def _physical(final):
+    """Whether a final estimate's R, L, m (those it reports) are positive."""
     q = dict(zip(final.names, final.values))
+    return all(q.get(name, 1.0) > 0 for name in PHYSICAL)
+
+
+def _sound(final):
+    """Whether a final estimate is finite and physical, and its mechanical equation fits the data."""
     fit = final.fit.get('mechanical')
-    return (np.all(np.isfinite(final.values)) and all(q.get(name, 1.0) > 0 for name in PHYSICAL)
-            and (fit is None or fit.adequate))
+    return bool(np.all(np.isfinite(final.values))) and _physical(final) and (fit is None or fit.adequate)
 
 
 def _choice(tried):
@@ -242,7 +246,7 @@ def _choice(tried):
     nominal gives no sound estimate and the spring explains SPRING_SHARE of what the nominal leaves."""
     nominal, sprung = tried
     before, left = (_ratio(t[2]) for t in tried)
-    physical = all(dict(zip(nominal[2].names, nominal[2].values)).get(name, 1.0) > 0 for name in PHYSICAL)
+    physical = _physical(nominal[2])
     if not _sound(sprung[2]) or (physical and not left <= (1.0 - SPRING_SHARE) * before):
         return nominal, None
     final = sprung[2]   # the spring's k is the last of all parameters q (also where the model does not report it)
@@ -307,15 +311,6 @@ def _unscaled(result, scales):
                    covariance=result.covariance * np.outer(vector, vector), sample_period=result.sample_period * t,
                    trajectory=replace(trajectory, time=trajectory.time * t, parameters=unscaled(trajectory.parameters),
                                       std=unscaled(trajectory.std)))
-
-
-def _identify(recording, model, kinds, lam, initial_covariance, points, report, columns=()):
-    """identify() on checked inputs, with the effects' `columns` (OnlineColumns) estimated beside the nominal
-    parameters."""
-    snapshots, ends = _snapshots(recording, kinds, lam, initial_covariance, points,
-                                 lambda done: report(done / 2.0), columns)
-    return result(model, snapshots, ends, recording, len(recording), lam,
-                  lambda j: report(0.5 + (j + 1) / (2.0 * len(ends))))
 
 
 def _snapshots(recording, kinds, lam, initial_covariance, points, report, columns=()):
