@@ -26,7 +26,19 @@ i_e lags G dpsi/dt by tau_e, tau_e di_e/dt = G dpsi/dt - i_e (a shorted turn wit
 i_e = G dpsi/dt), so I = psi / L(x) + iron + i_e, carried as a state; tau_e = 0 is the suite's form, the current
 then sampled just before the voltage steps. The force stays psi^2 L'(x) / (2 L(x)^2).
 
+A proportional solenoid in closed loop (`closed_loop`): the armature held between its stops, started at rest at
+mid-stroke with the flux linkage that balances it, following a position reference within `span` of mid-stroke
+(random levels through a critically damped second-order filter, or a multi-sine). A PID position loop computes a
+force demand m (s'' + 2 zeta w (s' - v) + w^2 (s - x) + INTEGRAL w^3 int (s - x)) + k x + F0, turned into a
+current demand by the force law read backwards, I* = (g0 - x) sqrt(2 F* / a) (plus, as a proportional valve's
+driver may add, a dither of `dither` A at DITHER_FREQUENCY), and a voltage by
+u = R I* + PI on I* - I (its proportional gain CURRENT_GAIN L(x) / Ts), clipped to +-SUPPLY; every parameter of
+the loop is the generator's nominal one (NOMINAL: the truth a few per cent off), v the measured position's
+difference low-passed. The loop sees the sensors of the open-loop record (noisy, quantised current; quantised
+position) and sets the voltage held over the next interval from them.
+
     rec, truth = record(rate=1000.0, seed=3)     # truth: {name: value} of the parameters
+    rec, truth = closed_loop(rate=5000.0, seed=3, reference='multisine')
 """
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -43,6 +55,17 @@ EDGE = 1e-15                               # m
 STUCK = 1e-9                               # s: a mode change sooner than this after the last is a balance
 FRICTION_SPEED = 5e-3                      # m/s: v_s of the armature's friction Fc tanh(v / v_s), if any
 EDDY_TIME = 2e-5                           # s: tau_e of the eddy currents' branch, if any
+# The closed loop: the controller's parameters, times the truth (deliberately off); its supply, bandwidths, gains.
+NOMINAL = {'resistance': 1.04, 'leakage_inductance': 1.1, 'gap_coefficient': 0.95, 'gap': 1.03, 'mass': 1.08,
+           'spring_stiffness': 0.92, 'spring_preload': 1.1}
+SUPPLY = 24.0                              # V: the driver's limit, +-
+LOOP_BANDWIDTH, LOOP_DAMPING, INTEGRAL = 60.0, 0.8, 0.2   # Hz, zeta, share of w^3 on the position error's integral
+REFERENCE_BANDWIDTH = 25.0                 # Hz: the critically damped filter of the reference's levels
+VELOCITY_BANDWIDTH = 300.0                 # Hz: the low-pass on the measured position's difference
+CURRENT_GAIN, CURRENT_TIME = 0.5, 10.0     # the current loop's gain (of L(x) / Ts) and integral time (samples)
+LEVEL_HOLD = (0.02, 0.08)                  # s: the reference's levels
+MULTISINE = (1.0, 40.0, 12)                # Hz, Hz, count: the multi-sine's lowest and highest frequency
+DITHER_FREQUENCY = 150.0                   # Hz: a proportional valve's driver's dither on the current demand
 
 
 def _model(p):
@@ -137,6 +160,24 @@ def voltage(duration, rate, rng, resistance):
     return u
 
 
+def _sensed(psi, x, eddy, before, p, rng, current_noise, current_step, resolution, rise=1.0):
+    """(current, position) as sampled: the coil's current (its eddy branch lagging, or with tau_e = 0 taking
+    G dpsi/dt at the voltage `before` of the interval ending there and R times `rise`) plus noise, quantised; the
+    position quantised."""
+    current = psi / (p['leakage_inductance'] + p['gap_coefficient'] / (p['gap'] - x)) + iron(psi, p)
+    ge = p.get('eddy_conductance', 0.0)
+    if ge and not p.get('eddy_time', EDDY_TIME):
+        r = p['resistance'] * rise
+        current = current + ge * (before - r * current) / (1.0 + r * ge)
+    else:
+        current = current + eddy
+    current = current + current_noise * rng.standard_normal(np.shape(psi))
+    if current_step:
+        current = np.round(current / current_step) * current_step
+    position = np.round(x / resolution) * resolution if resolution else x
+    return current, position
+
+
 def record(duration=2.0, rate=1000.0, seed=0, params=None, current_noise=5e-3, current_step=10.0 / 2048,
            resolution=1e-6, resistance_rise=0.0):
     """(Recording of t, voltage, current, position; the true parameters) of the solenoid of `params` (TRUTH),
@@ -151,20 +192,93 @@ def record(duration=2.0, rate=1000.0, seed=0, params=None, current_noise=5e-3, c
         psi[k], x[k], eddy[k] = state[0], state[1], state[4]
         rise = 1.0 + resistance_rise * (k + 0.5) / n
         state = _interval(state, u[k], ts, dict(p, resistance=p['resistance'] * rise) if resistance_rise else p)
-    current = psi / (p['leakage_inductance'] + p['gap_coefficient'] / (p['gap'] - x)) + iron(psi, p)
-    ge = p.get('eddy_conductance', 0.0)
-    if ge and not p.get('eddy_time', EDDY_TIME):   # G dpsi/dt with the voltage and R of the interval ending at t_k
-        before = np.r_[0.0, u[:-1]]
-        r = p['resistance'] * (1.0 + resistance_rise * np.maximum(np.arange(n) - 0.5, 0.0) / n)
-        current = current + ge * (before - r * current) / (1.0 + r * ge)
-    else:
-        current = current + eddy
-    current = current + current_noise * rng.standard_normal(n)
-    if current_step:
-        current = np.round(current / current_step) * current_step
-    position = np.round(x / resolution) * resolution if resolution else x
+    # (with tau_e = 0, G dpsi/dt at the voltage and R of the interval ending at t_k)
+    rise = 1.0 + resistance_rise * np.maximum(np.arange(n) - 0.5, 0.0) / n
+    current, position = _sensed(psi, x, eddy, np.r_[0.0, u[:-1]], p, rng, current_noise, current_step, resolution,
+                                rise)
     recording = Recording(ts, {'voltage': u, 'current': current, 'position': position},
                           source=f'independent solenoid, {rate:g} Hz')
+    return recording, p
+
+
+def reference_levels(duration, rate, rng, span):
+    """(s, s', s'') per sample: levels uniform within `span` of mid-stroke, each held LEVEL_HOLD, through a
+    critically damped second-order filter of REFERENCE_BANDWIDTH (so the motion it asks for is smooth)."""
+    n, ts = int(round(duration * rate)), 1.0 / rate
+    mid = 0.5 * (STOPS[0] + STOPS[1])
+    levels = np.empty(n)
+    k = 0
+    while k < n:
+        hold = max(1, int(round(rng.uniform(*LEVEL_HOLD) * rate)))
+        levels[k:k + hold] = mid + rng.uniform(-span, span)
+        k += hold
+    w = 2 * np.pi * REFERENCE_BANDWIDTH
+    out = np.empty((n, 3))
+    s, rate_s = mid, 0.0
+    for k in range(n):
+        accel = w * w * (levels[k] - s) - 2.0 * w * rate_s
+        out[k] = s, rate_s, accel
+        s, rate_s = s + rate_s * ts, rate_s + accel * ts
+    return out
+
+
+def reference_multisine(duration, rate, rng, span):
+    """(s, s', s'') per sample: MULTISINE's sines, log-spaced, random phases, amplitudes falling as 1 / f, scaled
+    to a peak of `span` about mid-stroke, faded in over the lowest one's period."""
+    t = np.arange(int(round(duration * rate))) / rate
+    low, high, count = MULTISINE
+    w = 2 * np.pi * np.geomspace(low, high, count)
+    phase = rng.uniform(0.0, 2 * np.pi, count)
+    amplitude = 1.0 / w
+    fade = np.minimum(t * low, 1.0)
+    waves = [amplitude[:, None] * f(w[:, None] * t + phase[:, None]) * w[:, None] ** j
+             for j, f in enumerate((np.sin, np.cos, lambda z: -np.sin(z)))]
+    s, rate_s, accel = (fade * wave.sum(axis=0) for wave in waves)   # (the fade's own slope left out: slow)
+    scale = span / np.max(np.abs(s))
+    return np.column_stack((0.5 * (STOPS[0] + STOPS[1]) + scale * s, scale * rate_s, scale * accel))
+
+
+def closed_loop(duration=2.0, rate=1000.0, seed=0, params=None, reference='levels', span=0.3e-3, dither=0.0,
+                current_noise=5e-3, current_step=10.0 / 2048, resolution=1e-6):
+    """(Recording of t, voltage, current, position; the true parameters) of the solenoid of `params` (TRUTH) held
+    by the generator's position loop (module docstring) on a reference ('levels' or 'multisine') within `span`
+    (m) of mid-stroke, a dither of `dither` A at DITHER_FREQUENCY on the current demand."""
+    p = dict(TRUTH, **(params or {}))
+    nominal = {name: p[name] * factor for name, factor in NOMINAL.items()}
+    rng = np.random.default_rng(seed)
+    ts = 1.0 / rate
+    plan = {'levels': reference_levels, 'multisine': reference_multisine}[reference](duration, rate, rng, span)
+    n = len(plan)
+    # at rest at mid-stroke, the flux linkage whose force balances the spring there
+    x0 = plan[0, 0]
+    held = (p['gap'] - x0) * np.sqrt(2.0 * (p['spring_stiffness'] * x0 + p['spring_preload']) / p['gap_coefficient'])
+    state = (held * (p['leakage_inductance'] + p['gap_coefficient'] / (p['gap'] - x0)), x0, 0.0, False, 0.0)
+    w = 2 * np.pi * LOOP_BANDWIDTH
+    smooth = np.exp(-2 * np.pi * VELOCITY_BANDWIDTH * ts)
+    u, current, position = np.empty(n), np.empty(n), np.empty(n)
+    velocity, error_integral, current_integral, last, before = 0.0, 0.0, 0.0, None, 0.0
+    for k in range(n):
+        psi, x, _, _, eddy = state
+        current[k], position[k] = _sensed(psi, x, eddy, before, p, rng, current_noise, current_step, resolution)
+        measured = position[k]
+        velocity = smooth * velocity + (1.0 - smooth) * (0.0 if last is None else (measured - last) / ts)
+        last = measured
+        s, rate_s, accel = plan[k]
+        error = s - measured
+        error_integral += error * ts
+        force = (nominal['mass'] * (accel + 2 * LOOP_DAMPING * w * (rate_s - velocity) + w * w * error
+                                    + INTEGRAL * w ** 3 * error_integral)
+                 + nominal['spring_stiffness'] * measured + nominal['spring_preload'])
+        gap = max(nominal['gap'] - measured, 1e-6)
+        demand = gap * np.sqrt(2.0 * max(force, 0.0) / nominal['gap_coefficient'])   # the force law backwards
+        demand += dither * np.sin(2 * np.pi * DITHER_FREQUENCY * k * ts)
+        gain = CURRENT_GAIN * (nominal['leakage_inductance'] + nominal['gap_coefficient'] / gap) / ts
+        current_integral += (demand - current[k]) * gain / CURRENT_TIME
+        u[k] = before = float(np.clip(nominal['resistance'] * demand + gain * (demand - current[k])
+                                      + current_integral, -SUPPLY, SUPPLY))
+        state = _interval(state, u[k], ts, p)
+    recording = Recording(ts, {'voltage': u, 'current': current, 'position': position},
+                          source=f'independent solenoid in closed loop, {rate:g} Hz')
     return recording, p
 
 

@@ -5,8 +5,11 @@ record (docs/physics.md §9.4).
 A solenoid under open-loop voltage is stable (its spring returns the armature, its end stops hold it), so unlike a
 moving coil in a closed loop (discrepancy/predict.py: k-step-ahead subsystems) the free run does not drift away
 for reasons that have nothing to do with the model: the current and position it predicts are the model's whole
-answer to the voltage. The plant step is the physics layer's (emla_core.physics.solenoid.solenoid_sequence: RK4
-sub-steps of at most SUBSTEP with inelastic stops).
+answer to the voltage. Not so for a proportional solenoid held between its stops by a position loop: there the
+force's stiffness at constant flux linkage can exceed the spring's, and the free run of such a record's voltage
+drifts off to a stop, so its position's gap measures that drift, not the model's error. The plant step is the
+physics layer's (emla_core.physics.solenoid.solenoid_sequence: RK4 sub-steps of at most SUBSTEP with inelastic
+stops).
 """
 import math
 

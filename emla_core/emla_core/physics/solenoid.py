@@ -308,7 +308,8 @@ def solenoid_step(i, x, v, u, p, h):
     stop = p[_XMAX] if x1 > p[_XMAX] else p[_XMIN] if x1 < p[_XMIN] else x1
     if stop == x1:
         return i1, x1, v1
-    fraction = min(max((stop - x) / (x1 - x), 0.0), 1.0)
+    # (an armature that starts beyond the stop and does not move is put on it at once)
+    fraction = min(max((stop - x) / (x1 - x), 0.0), 1.0) if x1 != x else 0.0
     i1 = _rk4(i, x, v, u, p, fraction * h)[0]
     if fraction < 1.0:
         i1, x1, v1 = _rk4(i1, stop, 0.0, u, p, (1.0 - fraction) * h)
