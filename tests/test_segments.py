@@ -128,7 +128,9 @@ def test_the_streaming_path_and_a_bag_with_missing_frames_agree(data, monkeypatc
         assert result['samples'] == csv['samples'] and listed(result) == pytest.approx(listed(csv))
         for name, value in csv['parameters'].items():
             assert result['parameters'][name] == pytest.approx(value, rel=1e-9), name
-            assert result['std'][name] == pytest.approx(csv['std'][name], rel=1e-5), name
+            # (the CSV holds 10 digits, the bag every bit: the noise model's fit, converged to its tolerance,
+            # moves a one-sigma by up to some 1e-5 of itself between the two)
+            assert result['std'][name] == pytest.approx(csv['std'][name], rel=1e-4), name
 
 
 def test_start_and_end_are_the_csv_cut_by_hand(data, tmp_path):
