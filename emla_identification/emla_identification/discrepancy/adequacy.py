@@ -4,13 +4,12 @@ alone would leave in it (noise_floor.py: the low band of the residual's spectrum
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.signal import lfilter
 
 from emla_identification.noise_floor import LowBand, low_band, noise_variances
 from emla_identification.regressors import noise_stencils
 
-from .fit import PREFILTER
-from .rows import Rows
+from .fit import PREFILTER, prefiltered
+from .rows import rows_of
 
 REALISATIONS = 8   # of the noise through the candidates' terms (_through_terms): Welch over 8 records
 
@@ -71,7 +70,7 @@ def _equations(fit, terms=True):
     through the rows and those terms (_through_terms)."""
     equations, quantities, scales = {}, {}, {}
     for kind, residual in fit.heldout_residuals().items():
-        rows = Rows(fit.data, kind, fit.linearised_about)
+        rows = rows_of(fit.data, kind, fit.linearised_about)
         scales[kind], quantities[kind] = rows.scale()
         equations[kind] = (residual * scales[kind],
                            {name: c * scales[kind] for name, c in noise_filters(fit, rows).items()})
@@ -119,11 +118,11 @@ def noise_gains(fit):
     rho = PREFILTER
     gains = {}
     for kind in fit.data.kinds:
-        rows = Rows(fit.data, kind, fit.linearised_about)
+        rows = rows_of(fit.data, kind, fit.linearised_about)
         gains[kind] = {}
         for name, c in noise_filters(fit, rows).items():
             if kind != 'electrical':   # the prefilter's impulse response has decayed to 1e-12 after 300 samples
-                c = lfilter([1.0 - rho], [1.0, -2.0 * rho, rho * rho], np.pad(c, (0, 300)))
+                c = prefiltered(np.pad(c, (0, 300)), rho)
             gains[kind][name] = len(rows.y) * float(np.sum(np.square(c))) / fit.sigma[kind] ** 2
     return gains
 

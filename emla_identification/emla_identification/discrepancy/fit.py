@@ -30,7 +30,7 @@ from emla_core.physics import Candidate
 from emla_core.recording import Recording
 
 from .data import regression_rows
-from .rows import Rows, bending, has_inductance, nominal_names
+from .rows import bending, has_inductance, nominal_names, rows_of
 
 FOLDS = 10
 # A delete-one-block jackknife's sigma has FOLDS - 1 degrees of freedom: an estimate's error in its units follows
@@ -52,7 +52,7 @@ def design(data, model, candidates, rho=PREFILTER, added=None, kept=None):
     regression's Rows."""
     out = {}
     for kind in data.kinds:
-        rows = Rows(data, kind, model)
+        rows = rows_of(data, kind, model)
         if kept is not None:
             kept[kind] = rows
         nominal, target, extra = rows.nominal, rows.target, rows.columns(candidates)
@@ -73,9 +73,15 @@ def _mechanical(data, rows, candidates, nominal, target, extra, rho):
             np.where(stuck[:, 0], rows.y, target)
     if rho is None:
         return nominal, target, extra
-    filtered = lfilter([1.0 - rho], [1.0, -2.0 * rho, rho * rho], np.column_stack((nominal, target, extra)), axis=0)
-    width = nominal.shape[1]
-    return filtered[:, :width], filtered[:, width], filtered[:, width + 1:]
+    # (linear: the model's own columns, the same for every candidate fitted about it, are filtered once)
+    own = rows.memoised(('prefiltered', rho), nominal is rows.nominal and target is rows.target,
+                        lambda: prefiltered(np.column_stack((nominal, target)), rho))
+    return own[:, :-1], own[:, -1], prefiltered(extra, rho)
+
+
+def prefiltered(columns, rho):
+    """The columns through the mechanical rows' prefilter (1 - rho) / (1 - rho q^-1)^2."""
+    return lfilter([1.0 - rho], [1.0, -2.0 * rho, rho * rho], columns, axis=0)
 
 
 def held_samples(data, candidates):

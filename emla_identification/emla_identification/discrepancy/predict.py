@@ -19,7 +19,7 @@ import numpy as np
 
 from .data import State
 from .fit import held_samples
-from .rows import Rows
+from .rows import rows_of
 
 MECHANICAL_TIME = 0.01   # s: about half the mechanical time constant m/B of Table 1 (18 ms)
 VELOCITY_SPAN = 5        # samples each side of a start used to estimate its velocity
@@ -51,7 +51,7 @@ def predict(fit):
 
 def predict_current(fit):
     data, p = fit.data, fit.parameters
-    rows = Rows(data, 'electrical', fit.linearised_about)
+    rows = rows_of(data, 'electrical', fit.linearised_about)
     horizon = max(1, int(np.ceil(5.0 * p['inductance'] / (p['resistance'] * data.sample_period))))
     coefficients = rows.coefficients + rows.jacobian @ fit.shift
     starts = np.arange(max(len(rows.y) - horizon + 1, 0))

@@ -47,6 +47,10 @@ MAX_PIECES = 64     # (a mechanical row's intervals: half as many each)
 INSTRUMENT_LAG = 2   # rows: an electrical row's error holds the noise of samples k-1 and k; these hold k-3, k-2
 MIN_INDUCTANCE = 0.1   # of the model's: the least a current's path takes (Rows._bent)
 BEND = 0.05   # a candidate's voltage bends the current's path where its slope dV/dI reaches this share of R (bending)
+KEPT_ROWS = 2   # Rows kept (rows_of): of two regressions about the three models last linearised about
+
+
+_KEPT = {}   # (id of the data, kind, model) -> Rows, least recently asked first
 
 
 def bending(candidates, data, model):
@@ -67,6 +71,21 @@ def bending(candidates, data, model):
             if inductance is not None and np.max(np.abs(inductance)) > BEND * model['inductance']:
                 out.append(c)
     return out
+
+
+def rows_of(data, kind, model):
+    """The Rows of regression `kind` of `data` about `model` ({name: value}), the last KEPT_ROWS asked for kept: a
+    diagnosis fits hundreds of candidates and variants about one model, and the rows, their Jacobian and the states
+    and current's path along each interval are the same for all of them. Read only. (Kept here, not on the data: a
+    diagnosis keeps every candidate's fit and its data, and memory would grow with their number.)"""
+    key = (id(data), kind) + tuple(float(model[name]) for name in nominal_names(data))
+    rows = _KEPT.pop(key, None)
+    if rows is None or rows.data is not data:   # (an id outlives its object)
+        rows = Rows(data, kind, model)
+    _KEPT[key] = rows   # the latest last
+    while len(_KEPT) > KEPT_ROWS:
+        del _KEPT[next(iter(_KEPT))]
+    return rows
 
 
 def nominal_names(data):
@@ -145,15 +164,34 @@ class Rows:
         self.voltage_gains, self.load_gains, self.voltage_slopes, self.load_slopes = gains
         self.shaped = self._voltage_shape()
         self._kept, self._kept_terms = (), None   # the candidates _terms last gave all rows' terms for, and those
+        self._memo = {}   # what every candidate's terms take on all rows alike (_memoised)
         self.prediction = self.phi @ self.coefficients
         if self.shaped is not None:
             self.prediction = self.prediction + self.shaped @ self._shape_gains()[0]
+        for shared in (self.phi, self.y, self.prediction):   # shared by every fit about this model (rows_of)
+            shared.flags.writeable = False
 
     @functools.cached_property
     def nominal(self):
-        if self.shaped is None:
-            return self.phi @ self.jacobian
-        return self.phi @ self.jacobian + self.shaped @ self._shape_gains()[1]
+        out = self.phi @ self.jacobian
+        if self.shaped is not None:
+            out = out + self.shaped @ self._shape_gains()[1]
+        out.flags.writeable = False
+        return out
+
+    @functools.cached_property
+    def target(self):
+        out = self.y - self.prediction
+        out.flags.writeable = False
+        return out
+
+    def memoised(self, key, keep, make):
+        """make(), kept under `key` where `keep`: what every fit about this model takes alike."""
+        if not keep:
+            return make()
+        if key not in self._memo:
+            self._memo[key] = make()
+        return self._memo[key]
 
     def _voltage_shape(self):
         """Each row's voltage less its interval mean over every part of the intervals the row spans (rows x
@@ -173,10 +211,6 @@ class Rows:
         voltage, _, slopes, _ = self._pieces(PARTS)
         return voltage.reshape(-1), slopes.reshape(-1, slopes.shape[-1])
 
-    @property
-    def target(self):
-        return self.y - self.prediction
-
     def scale(self):
         """Row residual -> physical units: (factor, quantity): the voltage (V) of an electrical row, the force (N)
         of a mechanical one (the inverse of the input's total gain)."""
@@ -187,7 +221,9 @@ class Rows:
     def instruments(self, candidates):
         """The electrical rows' instruments laid out like [nominal | columns]: the regressors' instruments
         (regressors.instruments) through J, the candidate columns INSTRUMENT_LAG rows earlier."""
-        zeta = instruments(self.kind, self.data.signals, self.data.sample_period) @ self.jacobian
+        data = self.data
+        zeta = self.memoised('instruments', True,
+                             lambda: instruments(self.kind, data.signals, data.sample_period) @ self.jacobian)
         extra = self.columns(candidates)
         lagged = np.vstack((np.repeat(extra[:1], INSTRUMENT_LAG, axis=0), extra[:len(extra) - INSTRUMENT_LAG]))
         return np.column_stack((zeta, lagged))
@@ -229,9 +265,9 @@ class Rows:
         """A force term given between the samples (Candidate.force_between) through the rows' gain of each part of
         their intervals (`gains`: intervals x pieces, or x parameters too for the derivatives)."""
         k = self.index[rows]
-        out = np.einsum('p...,npq->nq...', gains[0], between[k - 1])
+        out = np.tensordot(between[k - 1], gains[0], axes=(1, 0))   # (n, q, ...): sum over the pieces
         if self.kind != 'electrical':   # the second interval of a mechanical row
-            out = out + np.einsum('p...,npq->nq...', gains[1], between[k])
+            out = out + np.tensordot(between[k], gains[1], axes=(1, 0))
         return out
 
     def slopes(self, candidates, added):
@@ -262,8 +298,8 @@ class Rows:
                 and all(a is b for a, b in zip(self._kept, candidates)):
             return self._kept_terms
         parts = self.parts(candidates)
-        pieces, paths = self._electrical(rows, current, candidates, parts) if self.kind == 'electrical' \
-            else self._samples(rows, candidates, parts // 2)
+        pieces, paths = self._electrical(rows, current, candidates, parts, whole) if self.kind == 'electrical' \
+            else self._samples(rows, candidates, parts // 2, whole)
         out = []
         for c in candidates:
             shape = (len(pieces), len(pieces[0].index), len(c.parameters))
@@ -373,45 +409,64 @@ class Rows:
                  'load_slopes': load_slopes}[name]
         return gains[0] if electrical else gains.reshape((-1,) + gains.shape[2:])   # both intervals' parts in turn
 
-    def _electrical(self, rows, current, candidates, parts):
+    def _electrical(self, rows, current, candidates, parts, whole):
         """([the states along the interval [t_k-1, t_k] at the middle of each of its `parts` parts], _path's currents
         and rates there, from the interval's start to its end: the measured currents, or in a prediction the model's
         step): the position and velocity of the cubic spline through the measured positions, the current linear in time
-        (the terms take _path's instead: _terms)."""
+        (the terms take _path's instead: _terms). `whole`: all rows from the measured currents (kept: _memoised)."""
         k = self.index[rows]
-        between = self.data.between(parts)
         start = self.phi[rows, 0] if current is None else current
         end = self.y[rows] if current is None else self._step(rows, start)
-        position, velocity = between['position'][k - 1], between['velocity'][k - 1]   # one gather, then views
-        return [State(self.data, k - 1, position=position[:, m], velocity=velocity[:, m],
-                      current=start + (m + 0.5) / parts * (end - start), voltage=self.phi[rows, 1])
-                for m in range(parts)], self._path(k - 1, start, end, parts, candidates)
 
-    def _samples(self, rows, candidates, parts):
+        def states():
+            between = self.data.between(parts)
+            position, velocity = between['position'][k - 1], between['velocity'][k - 1]   # one gather, then views
+            return [State(self.data, k - 1, position=position[:, m], velocity=velocity[:, m],
+                          current=start + (m + 0.5) / parts * (end - start), voltage=self.phi[rows, 1])
+                    for m in range(parts)]
+        return (self.memoised(('states', parts), _kept(whole, parts), states),
+                self._along(candidates, whole, parts, lambda: self._path(k - 1, start, end, parts, candidates)))
+
+    def _along(self, candidates, whole, parts, path):
+        """path(): the current's path (_path), kept where no candidate bends it (it is then the model's alone)."""
+        return self.memoised(('path', parts), _kept(whole, parts) and not bending(
+            candidates, self.data, dict(zip(self.names, self.q0))), path)
+
+    def _samples(self, rows, candidates, parts, whole):
         """([the states at the middle of each of the `parts` parts of the intervals [t_k-1, t_k] and [t_k, t_k+1], in
         turn], _path's currents and rates there or None for the force regression): the cubic spline's position and
         velocity, the current (or force) linear between its samples, the voltage held. A force along the row is so taken
         where it acts, through the row's gain of each part: a spring's k x is not linear between the samples of a loop
-        hunting at a 2 kHz logger."""
+        hunting at a 2 kHz logger. `whole`: all rows (kept: _memoised)."""
         k = self.index[rows]
-        between = self.data.between(parts)
-        states, currents, rates = [], [], []
-        path = self.kind == 'mechanical'   # the force regression has no coil
-        if path:   # on each interval once: a row's second is the next row's first
-            spans = np.union1d(k - 1, k)
+
+        def states():
+            between = self.data.between(parts)
+            out = []
+            for j in (k - 1, k):
+                position, velocity = between['position'][j], between['velocity'][j]   # one gather, then views
+                ends = {name: (values[j], values[j + 1])
+                        for name, values in self.data.signals.items() if name != 'position'}
+                for m in range(parts):
+                    share = (m + 0.5) / parts
+                    others = {name: first if name == 'voltage' else (1.0 - share) * first + share * last
+                              for name, (first, last) in ends.items()}
+                    out.append(State(self.data, j, position=position[:, m], velocity=velocity[:, m], **others))
+            return out
+        pieces = self.memoised(('states', parts), _kept(whole, parts), states)
+        if self.kind != 'mechanical':   # the force regression has no coil
+            return pieces, None
+
+        def path():   # on each interval once: a row's second is the next row's first
+            spans = np.arange(k[0] - 1, k[-1] + 1) if len(k) else k
             current = self.data.signals['current']
             along = self._path(spans, current[spans], current[spans + 1], parts, candidates)
-        for j in (k - 1, k):
-            position, velocity = between['position'][j], between['velocity'][j]   # one gather, then views
-            ends = {name: (values[j], values[j + 1])
-                    for name, values in self.data.signals.items() if name != 'position'}
-            if path:
-                at = np.searchsorted(spans, j)
-                currents += [c[at] for c in along[0]]
-                rates += [r[at] for r in along[1]]
-            for m in range(parts):
-                share = (m + 0.5) / parts
-                others = {name: first if name == 'voltage' else (1.0 - share) * first + share * last
-                          for name, (first, last) in ends.items()}
-                states.append(State(self.data, j, position=position[:, m], velocity=velocity[:, m], **others))
-        return states, ((currents, rates) if path else None)
+            at = [np.searchsorted(spans, j) for j in (k - 1, k)]
+            return ([c[i] for i in at for c in along[0]], [r[i] for i in at for r in along[1]])
+        return pieces, self._along(candidates, whole, parts, path)
+
+
+def _kept(whole, parts):
+    """Are the states and path of a row's parts kept (Rows.memoised): taken on all rows from the measured currents
+    (`whole`), on the usual parts (finer ones, where an inductance bends, would take up to 8 times the memory)?"""
+    return whole and parts in (PIECES, PIECES // 2)
