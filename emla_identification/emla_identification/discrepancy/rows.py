@@ -164,7 +164,7 @@ class Rows:
         self.voltage_gains, self.load_gains, self.voltage_slopes, self.load_slopes = gains
         self.shaped = self._voltage_shape()
         self._kept, self._kept_terms = (), None   # the candidates _terms last gave all rows' terms for, and those
-        self._memo = {}   # what every candidate's terms take on all rows alike (_memoised)
+        self._memo = {}   # what every candidate's terms take on all rows alike (memoised)
         self.prediction = self.phi @ self.coefficients
         if self.shaped is not None:
             self.prediction = self.prediction + self.shaped @ self._shape_gains()[0]
@@ -413,7 +413,7 @@ class Rows:
         """([the states along the interval [t_k-1, t_k] at the middle of each of its `parts` parts], _path's currents
         and rates there, from the interval's start to its end: the measured currents, or in a prediction the model's
         step): the position and velocity of the cubic spline through the measured positions, the current linear in time
-        (the terms take _path's instead: _terms). `whole`: all rows from the measured currents (kept: _memoised)."""
+        (the terms take _path's instead: _terms). `whole`: all rows from the measured currents (kept: memoised)."""
         k = self.index[rows]
         start = self.phi[rows, 0] if current is None else current
         end = self.y[rows] if current is None else self._step(rows, start)
@@ -437,7 +437,7 @@ class Rows:
         turn], _path's currents and rates there or None for the force regression): the cubic spline's position and
         velocity, the current (or force) linear between its samples, the voltage held. A force along the row is so taken
         where it acts, through the row's gain of each part: a spring's k x is not linear between the samples of a loop
-        hunting at a 2 kHz logger. `whole`: all rows (kept: _memoised)."""
+        hunting at a 2 kHz logger. `whole`: all rows (kept: memoised)."""
         k = self.index[rows]
 
         def states():
