@@ -1,6 +1,6 @@
 """The discrepancy workflow's real accuracy (issue 22): many records of tests/independent_plant.py (an RK4 plant
 written apart from the suite), each with hidden effects the workflow is not told about, diagnosed by
-emla_identification.discrepancy.workflow.diagnose; the verdicts, the names and the parameters against the truth.
+emla_identification.discrepancy.diagnose; the verdicts, the names and the parameters against the truth.
 
 Every case comes from one integer seed (nothing else): the actuator (one of ACTUATORS, each parameter drawn
 +-30 %), the sample rate (RATES), the kind (a clean record, one library effect, a random pair of them, or an
@@ -333,8 +333,8 @@ def report_text(diagnosis):
     """The Markdown of `emla discrepancy --report` for the diagnosis (without its figures when the report
     module allows it)."""
     try:
+        from emla_identification.discrepancy.locate import localise
         from emla_identification.discrepancy.report import _markdown
-        from emla_identification.discrepancy.workflow import localise
         return _markdown(diagnosis, localise(diagnosis.nominal))
     except (ImportError, TypeError, AttributeError):   # the private function changed: the whole report
         import tempfile

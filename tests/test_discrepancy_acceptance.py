@@ -13,9 +13,11 @@ from independent_plant import make_effect, record
 from emla_bench import scenarios
 from emla_core.physics import CoulombFriction
 from emla_core.physics.candidate import CANDIDATES
+from emla_identification.discrepancy import diagnose
 from emla_identification.discrepancy.data import Data
 from emla_identification.discrepancy.fit import fit
-from emla_identification.discrepancy.workflow import assess, diagnose, removed_share
+from emla_identification.discrepancy.measures import removed_share
+from emla_identification.discrepancy.rank import assess
 
 PERCENT = re.compile(r'(-?\d+(?:\.\d+)?) %')
 

@@ -58,7 +58,7 @@ def test_a_delay_beside_a_missing_spring_is_not_scored_on_its_misfit_read_as_noi
     impossible (a negative resistance) and comes from the delay's start. Against it the delay was searched to
     2.84 samples with the spring missing; the noise levels fitted to that fit's residual (235 mA for 5) put more
     into its held-out error than it held, and taking that off scored the worst fit 2.0 (nothing named). Now such
-    levels are not the fit's noise (workflow._noise_known): the spring is named, then the delay at one sample."""
+    levels are not the fit's noise (noise.noise_known): the spring is named, then the delay at one sample."""
     r = _case(205)
     assert r['verdict'] == 'explained' and sorted(r['named']) == ['return_spring', 'sensor_delay'], r['candidates']
     delay = r['effect_parameters']['current_delay']

@@ -92,7 +92,7 @@ def test_an_effect_named_first_has_its_setting_searched_again_beside_the_next():
     """Sweep case 161: a Stribeck friction (0.04 N sliding, 0.10 N breakaway, a 2 um bristle) beside a 45 N/m
     magnetic stiffness at 5 kHz. The friction is named first, its pre-sliding band chosen while the stiffness was
     missing: 6.9 um, its level held at zero, and with the stiffness added the force balance was left at 16 times
-    its floor. Its band searched again beside the stiffness (workflow.backfitted) comes out near the bristle's, the
+    its floor. Its band searched again beside the stiffness (refine.backfitted) comes out near the bristle's, the
     level is free again, and the model closes with the stiffness and every nominal parameter within 3 sigma."""
     r = sweep.run_case(sweep.make_case(161), report=False)
     assert r['error'] is None, r.get('traceback')
@@ -140,7 +140,7 @@ def test_a_re_alignment_whose_form_the_first_stage_cannot_tell_is_chosen_by_the_
     first, the delay closes the electrical equation whether the current alone or current and position are late,
     and the force balance, the only equation a position a sample late changes, is at 95 times its floor from the
     friction: both were named late, a spring next, and the record was left unexplained. Named again from the
-    delay's other form (workflow._other_form), a Coulomb friction follows and the model explains the record, with
+    delay's other form (name.other_form), a Coulomb friction follows and the model explains the record, with
     a warning that says which form was taken and why, and every nominal parameter within 3 sigma."""
     from emla_identification.discrepancy import diagnose
     case = sweep.make_case(40, duration=1.0)

@@ -9,11 +9,13 @@ import math
 import pytest
 from independent_plant import random_parameters, record
 
+from emla_identification.discrepancy import diagnose
 from emla_identification.discrepancy.adequacy import heldout_noise, noise_gains, sensor_noise
 from emla_identification.discrepancy.candidates import library
 from emla_identification.discrepancy.data import Data
 from emla_identification.discrepancy.fit import fit
-from emla_identification.discrepancy.workflow import assess, backfitted, diagnose, polished
+from emla_identification.discrepancy.rank import assess
+from emla_identification.discrepancy.refine import backfitted, polished
 
 PLANT_NOISE = {'current': 5e-3 ** 2, 'position': 1e-6 ** 2 / 12.0}   # the plant's sensors
 

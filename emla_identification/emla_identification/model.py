@@ -18,11 +18,13 @@ from emla_core.physics import EFFECTS
 
 from .discrepancy.candidates import CANDIDATES
 from .discrepancy.data import Data
+from .discrepancy.diagnosis import reported_std
 from .discrepancy.fit import ModelOnData, fit, nominal_fit, physical
 from .discrepancy.profile import profiled
+from .discrepancy.rank import assess
+from .discrepancy.refine import added
 from .discrepancy.rows import nominal_names
 from .discrepancy.start import rescue_starts
-from .discrepancy.workflow import added, assess, reported_std
 from .greybox import UNRESOLVED
 
 
@@ -57,7 +59,7 @@ def from_fit(final, names, data, command, std):
     command : str
         The command line that made it (provenance).
     std : tuple
-        (nominal, added) one-sigma of the fit: discrepancy.workflow.reported_std's (Diagnosis.final_std).
+        (nominal, added) one-sigma of the fit: discrepancy.diagnosis.reported_std's (Diagnosis.final_std).
 
     Returns
     -------
@@ -126,7 +128,7 @@ def unresolved(model):
 def identify_model(model, data, record, source='model file'):
     """The model's structure (nominal + its effects) identified on a record's `data` (a Data; `record` names it in
     errors): the joint Fit, each effect added in turn as the discrepancy workflow names one
-    (discrepancy.workflow.assess and added: its variant, a delay or a time constant, searched again on these
+    (discrepancy.rank.assess and refine.added: its variant, a delay or a time constant, searched again on these
     data, refined and polished; the settings of the effects before it searched again beside it; each equation
     weighed by its own residual where that leaves less disagreement). An effect without a continuous setting keeps
     the model's settings (a spring's centre: the load force identified is the total there, as in the model).

@@ -1,5 +1,6 @@
 """`emla discrepancy`: the effect a model lacks named and added, the gap shown shrinking (the workflow is
 emla_identification.discrepancy; what the command does for its user is description(), its help)."""
+import contextlib
 import sys
 from pathlib import Path
 
@@ -67,7 +68,8 @@ def run(args):
                   {'--report': (args.report, REPORT)})
     with read_warnings() as lost:  # a bag's skipped chunks and the data they cost, for the JSON too
         recording = load_data(args)
-    diagnosis = diagnose(recording, names)
+    with progress_bar(sys.stderr) as progress:
+        diagnosis = diagnose(recording, names, progress=progress)
     result = {**diagnosis.to_dict(), **understood(recording, 'discrepancy')}
     hints = []
     if diagnosis.verdict == 'unexplained' and not diagnosis.warnings:   # another actuator family's record?
@@ -86,6 +88,23 @@ def run(args):
             temporary)))
     emit_json(result, args.json, files)
     return 0
+
+
+@contextlib.contextmanager
+def progress_bar(stream):
+    """diagnose's `progress` as a bar on `stream` when it is a terminal (tqdm: the stage, its candidates done of
+    all, the one being worked on, the time taken), None elsewhere: nothing goes into a log or a pipe."""
+    if not stream.isatty():
+        yield None
+        return
+    from tqdm import tqdm
+    with tqdm(file=stream, leave=False, bar_format='{desc}: {n}/{total} {postfix} [{elapsed}]') as bar:
+        def progress(stage, done, total, name):
+            bar.total, bar.n = total, done
+            bar.set_description_str(stage, refresh=False)
+            bar.set_postfix_str(name, refresh=False)
+            bar.refresh()
+        yield progress
 
 
 def _solenoid(args):

@@ -11,7 +11,8 @@ cross-correlation, binning), workflow (rank, add, re-identify, gap), report (Mar
 The bundled example bag bags/example_discrepancy is written by tests/test_discrepancy_cli.py.
 """
 from .candidates import CANDIDATES, Candidate, register_candidate
+from .diagnosis import Diagnosis
 from .report import write_report
-from .workflow import Diagnosis, diagnose
+from .workflow import diagnose
 
 __all__ = ['CANDIDATES', 'Candidate', 'Diagnosis', 'diagnose', 'register_candidate', 'write_report']

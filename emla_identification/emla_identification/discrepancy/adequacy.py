@@ -54,7 +54,7 @@ def rows_adequacy(fit):
     """assess_adequacy against the floor of the noise through the rows alone, the one candidates are compared in
     (a share of the disagreement removed, the least left): the floor a friction's terms add rises with its own
     pre-sliding band and level, and would favour it over a candidate that reads no signal (a force saturation at
-    10 kHz, sweep case 173, was named a Stribeck friction)."""
+    10 kHz was named a Stribeck friction)."""
     return assess_adequacy(fit, terms=False)
 
 
@@ -91,11 +91,11 @@ def _through_terms(fit, name, sigma, scales):
 
     The rows' own stencils treat a signal's noise as linear and the candidates' terms as slow; a friction whose
     pre-sliding band is a few position-noise sigmas wide (or a tanh steep against the velocity's noise) turns
-    that noise into force at every stop and reversal, low band included: sweep case 210 (a 0.09 N Coulomb friction
+    that noise into force at every stop and reversal, low band included: a 0.09 N Coulomb friction (
     at 10 kHz on a 1 um quantiser, band 2 um) left its force balance at 3.6 times the stencils' floor with every
     parameter within 2.5 sigma; at 1.1 times this floor. The noise added rides on the record's own, so the terms
     see sqrt(2) sigma: a floor near, not at, the one of the record's noise alone (above it where a reversal falls
-    within an interval: case 10, 2 kHz, right parameters, 0.64 times this floor)."""
+    within an interval: at 2 kHz, right parameters, 0.64 times this floor)."""
     rng = np.random.default_rng(0)   # the same floor for the same fit
     base = fit.residuals()
     x = fit.data.signals[name]

@@ -168,7 +168,7 @@ def fit(data, candidates=(), reference=None, *, relinearise=True, about=None):
     The refits hold the current's path bent by the fitted terms (_fitted). An inductance term's bend is a fixed
     point the refits iterate to, not a Gauss-Newton step: at the form and setting the data have, it converges and
     closes the misfit (docs/physics.md 6.3), but from a saturation current drawn far from the data's (2.8 A for
-    10 A, the sweep's case 66) it ran off, the term unresolved and L 19 % off. So where an inductance term bent the
+    10 A) it ran off, the term unresolved and L 19 % off. So where an inductance term bent the
     path in those refits, the model is refined without the bend as well and the better fit (a possible actuator
     first) is kept; a single pass (not `relinearise`: the variant searches) takes no inductance term's bend.
     """
@@ -241,7 +241,7 @@ def self_weighted(result):
     model with the effect then leans on the other equation, whose weak hold on a shared parameter can carry its noise
     (a 770 N/m return spring at 2 kHz: the mass 0.8 % and k 0.85 % off, the force balance left at 14 times its
     floor; weighed by its own, 1.02 times, k within 0.03 %). Weighed by its own, though, an equation that keeps a
-    misfit can drag what the other fixes (workflow.best_weighted chooses)."""
+    misfit can drag what the other fixes (refine.best_weighted chooses)."""
     data = result.data
     inductive = any(c.fitted for c in result.candidates if has_inductance(c))
     return _refined(data, solve(data, _fitted(result, inductive), result.parameters, result.sigma, added=result.added,

@@ -8,9 +8,11 @@ from emla_core.plot_axes import si_axis, time_origin
 
 from .data import regression_rows
 from .dependence import SMOOTHING, signals_of
+from .diagnosis import Diagnosis
 from .fit import FOLDS, STUDENT
+from .judge import MIN_BLOCKS, MIN_SCORE, MIN_SHARE, MIN_T, MOST
+from .locate import localise
 from .residuals import CONFIDENCE
-from .workflow import MIN_BLOCKS, MIN_SCORE, MIN_SHARE, MIN_T, MOST, Diagnosis, localise
 
 UNITS = {'current': 'A', 'position': 'm', 'voltage': 'V', 'force': 'N', 'time': 's', 'velocity': 'm/s',
          'acceleration': 'm/s^2', 'current rate': 'A/s', 'force rate': 'N/s', 'voltage rate': 'V/s'}
