@@ -21,14 +21,13 @@ from numpy.typing import ArrayLike
 
 from emla_core.data import as_recording
 from emla_core.errors import InputError
-from emla_core.physics import EFFECTS
 from emla_core.recording import Recording
 
 from . import offline
 from .checks import TYPICAL, check_excitation, checked, numerical_failures
 from .fit_check import check_fit
 from .moments import RowMoments
-from .online_effects import regression_rows
+from .online_effects import regression_rows, spring_options
 from .physical import fit, reported
 from .regressors import COLUMNS, HISTORY
 from .segments import identify_segments
@@ -192,20 +191,44 @@ def identify(data: Recording | Path | str | None = None, model: str | None = Non
     with numerical_failures(recording.source, f'the {model} model cannot be identified'):
         if recording.gaps:   # in segments: no row spans a gap (segments.py restarts the rows at each)
             identified = identify_segments(_scaled(recording, scales), model, kinds, lam, initial_covariance, points,
-                                           report, spring, result)
+                                           report, spring, chosen_result)
         else:
             identified = _sprung(_scaled(recording, scales), model, kinds, lam, initial_covariance, points, report,
                                  spring)
     return _unscaled(identified, scales)
 
 
+def chosen(tried, spring):
+    """(the (snapshots, ends, final estimate) of `tried`, in the order of spring_options, to report; a note or
+    None): the nominal where `spring` is None (auto) and its estimate is sound, else as _choice decides."""
+    if len(tried) == 1 or (spring is None and _sound(tried[0][2])):
+        return tried[0], None
+    return _choice(tried)
+
+
+def chosen_result(model, snapshots, ends, recording, samples, forgetting, spring=None):
+    """The GreyBoxResult (result) of the options' `snapshots` (one list per online_effects.spring_options, all
+    after the same rows `ends`) that identify chooses (chosen) from their final estimates, with its note. An
+    option whose estimate fails is left out; an InputError where all do."""
+    tried, failure = [], None
+    for option in snapshots:
+        try:
+            tried.append((option, ends, final_estimate(model, option[-1], recording, forgetting)))
+        except InputError as error:
+            failure = error
+    if not tried:
+        raise failure
+    (option, ends, final), note = chosen(tried, spring)
+    out = result(model, option, ends, recording, samples, forgetting, final=final)
+    if note:
+        out.notes.append(note)
+    return out
+
+
 def _sprung(recording, model, kinds, lam, initial_covariance, points, report, spring):
     """The GreyBoxResult with or without the spring's column, as `spring` asks (identify): each candidate's
     final estimate decides, and only the chosen one's trajectory is fitted."""
-    if 'electrical' not in kinds:   # the spring's exact rows are those from position
-        spring = False
-    options = [()] if spring is False else [(EFFECTS['return_spring'].online,)] if spring else \
-        [(), (EFFECTS['return_spring'].online,)]
+    options = spring_options(kinds, spring)
     tried, failure = [], None
     for j, columns in enumerate(options):
         def part(done, j=j):
@@ -220,8 +243,7 @@ def _sprung(recording, model, kinds, lam, initial_covariance, points, report, sp
             break
     if not tried:
         raise failure
-    chosen, note = _choice(tried) if len(tried) == 2 else (tried[0], None)
-    snapshots, ends, final = chosen
+    (snapshots, ends, final), note = chosen(tried, spring)
     out = result(model, snapshots, ends, recording, len(recording), lam,
                  lambda j: report((len(options) + (j + 1) / len(ends)) / (len(options) + 1)), final=final)
     if note:

@@ -26,6 +26,15 @@ def online_effects():
     return [name for name, e in EFFECTS.items() if e.online is not None or e.online_by_forgetting]
 
 
+def spring_options(kinds, spring):
+    """The extra columns greybox.identify tries, as its `spring` asks: none, the return spring's, or both (the
+    nominal first). The spring's exact rows are those from position: with the coil's equation only."""
+    sprung = (EFFECTS['return_spring'].online,)
+    if spring is False or 'electrical' not in kinds:
+        return [()]
+    return [sprung] if spring else [(), sprung]
+
+
 def columns_for(effects, forgetting):
     """The extra OnlineColumns of `effects` (names and/or ModelEffects of a model file), in the given order. An
     InputError names any effect that cannot run online, and why; one followed by the forgetting needs
@@ -67,7 +76,8 @@ class EffectColumns:
         complete."""
         x = np.concatenate((self._tail, np.asarray(position, dtype=float).reshape(-1)))
         self._tail = x[-HISTORY:]
-        lagged = [x[j:len(x) - HISTORY + j] for j in range(LEAD - 2, LEAD + 3)]   # positions k-2 .. k+2
+        n = max(len(x) - HISTORY, 0)   # the rows the frame completes (none in a segment shorter than a row)
+        lagged = [x[j:j + n] for j in range(LEAD - 2, LEAD + 3)]   # positions k-2 .. k+2
         out, skipped = {}, None
         for kind in kinds:
             columns, instruments = (np.empty((len(lagged[0]), len(self.columns))) for _ in range(2))
@@ -85,18 +95,23 @@ def regression_rows(signals, kinds, sample_period, columns=()):
     """{kind: (Phi, Y, instruments or None)} of a whole record's rows (regressors.rows), with the effects'
     `columns` (OnlineColumns) beside each regression's own; rows an effect skips are zero (they contribute
     nothing)."""
-    extra, skipped = (EffectColumns(columns, sample_period).rows(signals['position'], kinds) if columns
-                      else ({}, None))
+    made = {kind: (*rows(kind, signals, sample_period), instruments(kind, signals, sample_period)) for kind in kinds}
+    if not columns:
+        return made
+    return with_columns(made, *EffectColumns(columns, sample_period).rows(signals['position'], kinds))
+
+
+def with_columns(made, extra, skipped):
+    """{kind: (Phi, Y, instruments or None)} of rows `made` with the effects' columns and their instruments
+    `extra` beside each regression's own, and the rows `skipped` (or None) zero (they contribute nothing):
+    EffectColumns.rows gives (extra, skipped) for the same rows."""
     out = {}
-    for kind in kinds:
-        phi, y = rows(kind, signals, sample_period)
-        zeta = instruments(kind, signals, sample_period)
-        if columns:
-            phi = np.hstack((phi, extra[kind][0]))
-            zeta = None if zeta is None else np.hstack((zeta, extra[kind][1]))
-            if skipped is not None:
-                phi[skipped], y = 0.0, np.where(skipped, 0.0, y)
-                if zeta is not None:
-                    zeta[skipped] = 0.0
+    for kind, (phi, y, zeta) in made.items():
+        phi = np.hstack((phi, extra[kind][0]))
+        zeta = None if zeta is None else np.hstack((zeta, extra[kind][1]))
+        if skipped is not None:
+            phi[skipped], y = 0.0, np.where(skipped, 0.0, y)
+            if zeta is not None:
+                zeta[skipped] = 0.0
         out[kind] = phi, y, zeta
     return out

@@ -86,14 +86,16 @@ def _handed_over(parts):
 
 def identify_chunks(chunks: Iterable[Recording], model: str | None = None, forgetting: float = 1.0, *,
                     initial_covariance: float = 1e6, points: int = 200,
-                    progress: Callable[[int], object] | None = None, spans: list | None = None) -> GreyBoxResult:
+                    progress: Callable[[int], object] | None = None, spans: list | None = None,
+                    spring: bool | None = None) -> GreyBoxResult:
     """greybox.identify of the record that `chunks` yields as consecutive Recordings, one held at a time.
 
     A part that starts after the previous one's end begins a new segment of the record (samples were lost
     between them): no row spans the gap. The trajectory holds the estimates after at most `points` evenly spaced
     parts (the last: the final estimate); progress: None or a function called with the samples done after each
     part; spans: None or a list that gets [start time s, samples] of each segment as it is read (for
-    emla_core.sampling.listing).
+    emla_core.sampling.listing); spring: as greybox.identify's (the rows with the spring's column accumulated
+    beside the nominal ones in the same pass).
     """
     chunks = iter(chunks)
     first = next(chunks, None)
@@ -103,4 +105,4 @@ def identify_chunks(chunks: Iterable[Recording], model: str | None = None, forge
     checks.check_magnitudes(first)
     with checks.numerical_failures(first.source, f'the {model} model cannot be identified'):
         return identified(first, chunks, model, kinds, lam, initial_covariance, points, progress,
-                          [] if spans is None else spans, greybox.result)
+                          [] if spans is None else spans, greybox.chosen_result, spring=spring)

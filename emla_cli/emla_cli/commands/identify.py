@@ -323,11 +323,12 @@ def _greybox(recording, parts, model, forgetting, args):
     from emla_identification.greybox import identify
     from emla_identification.streaming import identify_chunks
     points = _points(args, recording, parts) if args.plot or args.trajectory else 1   # else the final one only
+    spring = {'auto': None, 'on': True, 'off': False}[args.spring]
     if parts is None:
         with tqdm(total=100, unit='%', desc='identify', file=sys.stderr, leave=False,
                   disable=not sys.stderr.isatty() or len(recording) < PROGRESS_MIN_SAMPLES) as bar:
             result = identify(recording, model, forgetting, points=points,
-                              spring={'auto': None, 'on': True, 'off': False}[args.spring],
+                              spring=spring,
                               progress=lambda done: bar.update(round(100 * done) - bar.n))
         spans = [(segment.start_time, len(segment)) for segment in recording.segments()]
     else:
@@ -335,7 +336,7 @@ def _greybox(recording, parts, model, forgetting, args):
         with tqdm(unit=' samples', unit_scale=True, desc='identify', file=sys.stderr, leave=False,
                   disable=not sys.stderr.isatty()) as bar:
             result = identify_chunks(parts, model, forgetting, points=points,
-                                     progress=lambda samples: bar.update(samples - bar.n), spans=spans)
+                                     progress=lambda samples: bar.update(samples - bar.n), spans=spans, spring=spring)
     truth = recording.truth(result.parameters)
     trajectory = result.trajectory
     title = f'{Path(recording.source).name}: {result.model} model'
