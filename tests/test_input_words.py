@@ -188,7 +188,7 @@ def test_candidates_given_twice_are_taken_once(record, monkeypatch, capsys):
     from emla_core.errors import InputError
     taken = []
 
-    def diagnose(recording, names):
+    def diagnose(recording, names, progress=None):
         taken.append(names)
         raise InputError('stopped before the workflow')
     monkeypatch.setattr(discrepancy, 'diagnose', diagnose)

@@ -4,10 +4,12 @@ Each command module has HELP (one line), description() (the user's text of `emla
 by hand), add_arguments(parser) and run(args) -> exit status.
 """
 import argparse
+import difflib
 import errno
 import importlib
 import io
 import os
+import re
 import sys
 from importlib.metadata import PackageNotFoundError, version
 
@@ -46,10 +48,48 @@ def _command_module(name):
 
 
 class Parser(argparse.ArgumentParser):
-    """argparse's parser with a usage error in one line, as every other bad input: 'emla COMMAND: error: ...'."""
+    """argparse's parser with a usage error in one line, as every other bad input: 'emla COMMAND: error: ...',
+    and a mistyped option or command answered with the nearest one ('did you mean --model?'). The commands'
+    parsers are of this class too (add_subparsers makes them of its parser's class)."""
+
+    _commands = None   # the action of the subcommands, once add_subparsers made it
+
+    def add_subparsers(self, **kwargs):
+        """argparse's, kept: an argument that no parser knows is reported by its command's parser (whose options
+        it mistypes), not by emla's."""
+        self._commands = super().add_subparsers(**kwargs)
+        return self._commands
+
+    def parse_args(self, args=None, namespace=None):
+        """argparse's, with the unknown arguments reported by the parser of the command given (see `_chosen`)."""
+        parsed, unknown = self.parse_known_args(args, namespace)
+        if unknown:
+            self._chosen(parsed).error(f'unrecognized arguments: {" ".join(unknown)}')
+        return parsed
+
+    def _chosen(self, parsed):
+        """The parser of the (sub)command that `parsed` holds, or this one without a command."""
+        name = getattr(parsed, self._commands.dest, None) if self._commands is not None else None
+        return self if name is None else self._commands.choices[name]._chosen(parsed)
 
     def error(self, message):
-        self.exit(2, f'{self.prog}: error: {message} (see {self.prog} --help)\n')
+        self.exit(2, f'{self.prog}: error: {message}{self._suggestion(message)} (see {self.prog} --help)\n')
+
+    def _suggestion(self, message):
+        """'; did you mean X?' with the option or choice of this parser nearest to each word that argparse's
+        `message` says it does not know (difflib's close matches), else ''."""
+        unknown = re.fullmatch(r'unrecognized arguments: (.*)', message)
+        choice = re.search(r"invalid choice: '([^']*)'", message)
+        if unknown:
+            words = [word.split('=')[0] for word in unknown[1].split() if word.startswith('-')]
+            known = [option for action in self._actions for option in action.option_strings]
+        elif choice:
+            words = [choice[1]]
+            known = [str(value) for action in self._actions if action.choices for value in action.choices]
+        else:
+            return ''
+        nearest = dict.fromkeys(match for word in words for match in difflib.get_close_matches(word, known, n=1))
+        return f'; did you mean {", ".join(nearest)}?' if nearest else ''
 
 
 def build_parser(names=tuple(COMMANDS)):

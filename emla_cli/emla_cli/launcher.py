@@ -329,8 +329,6 @@ def launch(scenario, duration, bag, node_parameters, actuator='moving_coil', wor
 
     The identifier's final estimate is a moving coil's /emla/parameters, or with `actuator` 'solenoid' the coil's
     R on /emla/effects (emla_identification.nodes.identifier_node)."""
-    from tqdm import tqdm
-
     from emla_core.nodes.run import ros_node
 
     started = time.monotonic()
@@ -343,8 +341,7 @@ def launch(scenario, duration, bag, node_parameters, actuator='moving_coil', wor
     solenoid = actuator == 'solenoid'
     with reserved_domain() as domain, _workdir(workdir) as tmp, \
             Graph(domain_env(domain)) as graph, ros_node('emla_launch', domain) as (node, executor), \
-            tqdm(total=round(duration, 6), desc=f'{scenario} (domain {domain})', file=sys.stderr,
-                 bar_format='{desc}: {n:.3f}/{total} s simulated [{elapsed}]') as bar:
+            simulated_time_bar(duration, f'{scenario} (domain {domain})', sys.stderr) as bar:
         monitor = Monitor(node, graph.cpu_times, topics.EFFECTS_TOPIC if solenoid else topics.PARAMETERS_TOPIC)
         for name in ('recorder', *NODES):
             graph.start(name, [str(BIN / 'emla'), 'run', name, '--params-file',
@@ -365,6 +362,14 @@ def launch(scenario, duration, bag, node_parameters, actuator='moving_coil', wor
     return {'scenario': scenario, 'duration': duration, 'wall_time': round(time.monotonic() - started, 3),
             'realtime_factor': rtf, 'cpu_per_simulated_second': cpu, 'final_parameters': estimates[-1][1],
             'true_parameters': contents.truth[-1][1] if contents.truth else {}, 'bag': str(bag), 'nodes': nodes}
+
+
+def simulated_time_bar(duration, label, stream):
+    """A tqdm bar of the simulated time (s of `duration`) on `stream`, shown only where that is a terminal: its
+    redraws ('\\r' lines) would fill a log file that stderr is redirected to."""
+    from tqdm import tqdm
+    return tqdm(total=round(duration, 6), desc=label, file=stream, disable=not stream.isatty(),
+                bar_format='{desc}: {n:.3f}/{total} s simulated [{elapsed}]')
 
 
 def _workdir(directory):

@@ -2,6 +2,9 @@
 import math
 import numbers
 import sys
+from pathlib import Path
+
+from emla_core.errors import InputError
 
 from .numbers import add_number
 
@@ -55,11 +58,28 @@ def foreign(args):
 
 def load_data(args, path=None, gaps=False):
     """The Recording of `path` (default: args.data) read with the data flags; `gaps`: in segments where samples
-    are missing (for the grey-box identification), else such a record is refused (emla_core.data.load)."""
+    are missing (for the grey-box identification), else such a record is refused (emla_core.data.load), as is
+    a MATLAB file none of whose variables holds a signal (`_no_mat_signals`)."""
     from emla_core.data import load
-    return load(path or args.data, columns=args.columns, units=args.units, topics=args.topics,
-                sample_period=args.sample_period, delimiter=args.delimiter, decimal=args.decimal, start=args.start,
-                end=args.end, gaps=gaps)
+    path = path or args.data
+    recording = load(path, columns=args.columns, units=args.units, topics=args.topics,
+                     sample_period=args.sample_period, delimiter=args.delimiter, decimal=args.decimal,
+                     start=args.start, end=args.end, gaps=gaps)
+    if not recording.signals and Path(path).suffix.lower() == '.mat' and Path(path).is_file():
+        raise _no_mat_signals(path, recording)
+    return recording
+
+
+def _no_mat_signals(path, recording):
+    """The InputError for a MATLAB file where no variable was taken for a signal, listing its numeric vectors
+    and their lengths: only the chosen variables are read, so the record cannot name the others (as a CSV
+    file's record does its unmapped columns, which the commands' errors list)."""
+    from emla_core.tables import mat_vectors
+    time = recording.inputs.get('t', {}).get('source')
+    vectors = ', '.join(f'{name} ({length} values{", read as the time" if name == time else ""})'
+                        for name, length in mat_vectors(path).items())
+    return InputError(f'{path}: no variable holds voltage, current, position or force; its numeric vectors are '
+                      f'{vectors}: map yours with --columns voltage=NAME,current=NAME,position=NAME')
 
 
 def understood(recording, command):

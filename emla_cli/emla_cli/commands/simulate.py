@@ -10,6 +10,7 @@ with their full covariance and the plant's true parameters every 10 ms, and the 
 The controller runs once a sample here (every 1 ms in the graph), so the two bags have the same layout, not
 the same samples.
 """
+import dataclasses
 import sys
 import time
 
@@ -27,6 +28,7 @@ HELP = 'Simulate a scenario in-process and record it as a bag.'
 SOLENOID_PERIOD = 2e-4    # s: the solenoid's record is logged at 5 kHz
 SOLENOID_DURATION = 2.0   # s
 MAX_DURATION = 600.0   # s: 6 M samples at 10 kHz, held in memory with the truth and the estimates
+MAX_SEED = 2**32 - 1   # --seed: 32 bits are plenty (numpy takes any integer from 0); --fleet's recording k takes N + k
 
 
 def description():
@@ -47,6 +49,10 @@ def add_arguments(parser):
                              'valve, docs/physics.md 9) driven open loop by voltage levels that move its armature '
                              'across the stroke at 1-3 A, logged at 5 kHz with 5 mA current noise and 1 um position '
                              'steps (default 2 s)')
+    add_number(parser, '--seed', low=0, high=MAX_SEED, integer=True, metavar='N',
+               help='seed of the sensor noise (of the solenoid\'s excitation too): another N gives another record '
+                    'of the same run, the same N the same record (default: the scenario\'s, 0; a --fleet\'s '
+                    'recording k takes N + k)')
     out = parser.add_mutually_exclusive_group(required=True)
     out.add_argument('--bag', metavar='DIR', help='bag directory to write (new or empty)')
     out.add_argument('--csv', metavar='FILE.csv',
@@ -158,6 +164,7 @@ def run(args):
     _no_fleet_options(args)
     check_outputs({}, [args.model_file], args.force, {'--bag': (args.bag, BAG)})
     scenario, duration = scenario_args.scenario_and_duration(args)
+    scenario = _seeded(scenario, args.seed)
     started = time.monotonic()
     result = _simulate(scenario, duration, args.model_file)
     # built beside it and moved into place when complete: a run that fails leaves an earlier bag as it was
@@ -165,6 +172,12 @@ def run(args):
     print(f'emla simulate: {scenario.name}, {duration:g} s ({len(result.recording) - 1} samples) in '
           f'{time.monotonic() - started:.1f} s; bag {args.bag}', file=sys.stderr)
     return 0
+
+
+def _seeded(scenario, seed):
+    """The scenario with the sensor noise of `seed`, or as it is for None: the records `emla simulate` made
+    before --seed existed are made again without it."""
+    return scenario if seed is None else dataclasses.replace(scenario, seed=seed)
 
 
 def _solenoid(args):
@@ -182,7 +195,8 @@ def _solenoid(args):
         params = read(args.model_file).require('solenoid', args.model_file).solenoid()
     duration = SOLENOID_DURATION if args.duration is None else args.duration
     started = time.monotonic()
-    recording, truth = record(params, duration=duration, sample_period=SOLENOID_PERIOD)
+    seed = {} if args.seed is None else {'seed': args.seed}   # else record's own
+    recording, truth = record(params, duration=duration, sample_period=SOLENOID_PERIOD, **seed)
     if args.csv:
         write_output(args.csv, lambda temporary: write_csv(recording, temporary))
     else:
@@ -225,8 +239,6 @@ def _no_fleet_options(args):
 
 def _fleet(args):
     """`emla simulate --fleet DIR`: the scenario at each recording's hour of a long run, one bag each."""
-    import dataclasses
-
     import yaml
 
     from emla_bench.fleet import long_run, parse_step
@@ -235,6 +247,7 @@ def _fleet(args):
     if args.hours / args.every > MAX_RECORDINGS:
         raise InputError(f'--hours {args.hours:g} --every {args.every:g}: more than {MAX_RECORDINGS} recordings')
     scenario, duration = scenario_args.scenario_and_duration(args)
+    scenario = _seeded(scenario, args.seed)
     schedule = long_run(scenario.params, args.hours, args.every, resistance_rise=args.resistance_rise,
                         thermal_time=args.thermal_time, steps=steps)
     started = time.monotonic()
