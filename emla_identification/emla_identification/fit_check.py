@@ -31,6 +31,7 @@ NEGLIGIBLE = 1e-6     # an unexplained low band below this fraction of the equat
 EQUATION = {'electrical': 'electrical', 'mechanical': 'mechanical', 'electrical_velocity': 'electrical',
             'mechanical_velocity': 'mechanical', 'force': 'mechanical'}
 QUANTITY = {'electrical': ('voltage', 'V'), 'mechanical': ('force', 'N')}
+DEPENDS = 0.2         # share of the low-passed residual a signal explains for the warning to name it
 
 
 @dataclass
@@ -77,7 +78,12 @@ class EquationFit:
         name, unit = self.quantity
         top = self.depends_on[0] if self.depends_on else None
         where = (f', most of it a function of the {top["signal"]} ({100 * top["explained"]:.0f} % of it)'
-                 if top and top['explained'] >= 0.2 else ', a function of no single signal')
+                 if top and top['explained'] >= DEPENDS else ', a function of no single signal')
+        if where.endswith('signal') and self.equation == 'electrical':
+            # white noise on a logged voltage reaches the residual flat, into the low band that the current's
+            # noise (differenced by the row) leaves nearly empty; a flat source in the floor would hide effects
+            where += (' (if the voltage is a measured one, not the command, its own noise, which the noise model '
+                      'takes as exact, leaves such a residual)')
         return (f'the {self.equation} equation does not fit these data: its residual holds {self.ratio:.3g} times the '
                 f'sensor noise in the low band ({self.size:.3g} {unit} of {name} unexplained){where}; the '
                 f'uncertainties do not cover this model error: run `emla discrepancy` to find what is missing')
