@@ -7,7 +7,7 @@
 - whiteness: white sensor noise reaches a row's residual through the few samples the row spans (noise.py), so
   the residual of a model that fits is uncorrelated beyond that span; the largest normalised autocorrelation
   at lags HISTORY+1 .. MAX_LAG is reported beside its 99 % bound for white residuals;
-- dependence: the signals the low-passed residual is a function of (discrepancy.dependence, beside the
+- dependence: the signals the low-passed residual is a function of (dependence.py, beside the
   equation's own regressors), the first place to look for what is missing.
 
 An equation whose low band holds more than noise_floor.MAX_RATIO times the noise's share does not fit: its
@@ -18,7 +18,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.signal import savgol_filter
 
-from .discrepancy.dependence import dependence
+from .dependence import dependence
 from .noise import noise_filters
 from .noise_floor import MAX_RATIO, low_band
 from .online_effects import regression_rows
@@ -139,7 +139,7 @@ def _correlation(e):
 
 
 def _signals(signals, index, ts):
-    """{name: values at rows `index`} of the signals a residual may depend on (as discrepancy.dependence)."""
+    """{name: values at rows `index`} of the signals a residual may depend on (as dependence.signals_of)."""
     motion = 'position' if 'position' in signals else 'velocity'
     window = min(21, len(signals[motion]) // 2 * 2 - 1)
     out = {'time': ts * index}

@@ -31,6 +31,7 @@ from .online_effects import regression_rows, spring_options
 from .physical import fit, reported
 from .regressors import COLUMNS, HISTORY
 from .segments import identify_segments
+from .summary import summary_text
 
 RESCALE_BEYOND = 2.0 ** 16
 MEMORY_SPANS = 2          # memory times of the record the fit of an estimate with forgetting is checked on
@@ -92,7 +93,6 @@ class GreyBoxResult:
     def summary(self) -> str:
         """The result as a table a person reads: parameters, one-sigma, relative sigma, the fit verdict per
         equation, notes and warnings (summary.py)."""
-        from .summary import summary_text
         return summary_text(f'{self.model} model, {self.samples} samples at {1.0 / self.sample_period:g} Hz',
                             self.parameters, self.std, {k: f.to_dict() for k, f in self.fit.items()}, self.notes,
                             self.warnings())

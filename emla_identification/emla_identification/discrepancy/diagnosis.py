@@ -4,9 +4,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..dependence import dependence, signals_of
 from .adequacy import EQUATION
 from .data import Data, regression_rows
-from .dependence import dependence, signals_of
 from .fit import FOLDS, STUDENT, Fit, design, with_systematic
 from .judge import RIVAL, Assessment
 from .measures import adequacy_of

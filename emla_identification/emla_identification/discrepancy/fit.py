@@ -29,6 +29,7 @@ from emla_core.errors import InputError
 from emla_core.physics import Candidate
 from emla_core.recording import Recording
 
+from ..greybox import identify
 from .data import regression_rows
 from .rows import bending, has_inductance, nominal_names, rows_of
 
@@ -270,7 +271,6 @@ def chi_square(fit, scale):
 def greybox_start(data):
     """The nominal parameters the first fit is linearised about: the grey-box identification's (exact rows,
     minimum distance from several starts, so the Gauss-Newton refits begin near the optimum)."""
-    from emla_identification.greybox import identify  # here: greybox's fit check imports this package
     model = 'mechanical' if data.kinds == ('force',) else 'full'
     try:
         result = identify(Recording(data.sample_period, dict(data.signals), source=data.source), model=model,

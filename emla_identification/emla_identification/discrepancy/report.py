@@ -6,8 +6,8 @@ from scipy.ndimage import uniform_filter1d
 
 from emla_core.plot_axes import si_axis, time_origin
 
+from ..dependence import SMOOTHING, signals_of
 from .data import regression_rows
-from .dependence import SMOOTHING, signals_of
 from .diagnosis import Diagnosis
 from .fit import FOLDS, STUDENT
 from .judge import MIN_BLOCKS, MIN_SCORE, MIN_SHARE, MIN_T, MOST
@@ -58,7 +58,7 @@ def write_report(diagnosis: Diagnosis, directory: Path | str, json_text: str | N
         plt.close(figure)
     if json_text is not None:
         (directory / 'diagnosis.json').write_text(json_text)
-    (directory / 'report.md').write_text(_markdown(diagnosis, before))
+    (directory / 'report.md').write_text(markdown(diagnosis, before))
     return directory / 'report.md'
 
 
@@ -137,7 +137,24 @@ def _correlation_figure(plt, before, after):
     return figure
 
 
-def _markdown(diagnosis, before):
+def markdown(diagnosis: Diagnosis, before: dict) -> str:
+    """The text of report.md, its figures linked but not drawn (`write_report` draws them beside it).
+
+    The verdict, the warnings, the effects named, where the model disagrees, the gap between model and
+    measurement, the candidates, the residuals' correlations and the parameters.
+
+    Parameters
+    ----------
+    diagnosis : Diagnosis
+        What `emla discrepancy` found.
+    before : dict
+        {equation: Localisation} of the nominal model's residuals: `locate.localise(diagnosis.nominal)`.
+
+    Returns
+    -------
+    str
+        The Markdown, ending in a newline.
+    """
     d = diagnosis.to_dict()
     data = diagnosis.data
     verdict = d['verdict']

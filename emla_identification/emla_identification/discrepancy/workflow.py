@@ -5,7 +5,7 @@ is left; report the gap between model and measurement before and after, and wher
 Adequacy (adequacy.py): each equation's held-out one-step residual against the floor the sensor noise
 alone would leave in it. The verdict: `adequate` (the nominal model fits to the noise floor), `explained`
 (the named effects leave nothing), `unexplained` (a disagreement remains that no candidate explains). What
-is left is located (dependence.py) on the signals it is a smooth function of.
+is left is located (emla_identification/dependence.py) on the signals it is a smooth function of.
 
 The stages, each a module: nominal.py (the nominal model), adequacy.py (is it adequate?), rank.py
 (the candidates against it), judge.py (how each is judged), name.py (name the best, add it, rank again),
