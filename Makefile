@@ -12,7 +12,7 @@ help:
 	@echo "make demo   - run the default scenario end to end (sets up first)"
 	@echo "make bench  - measure the hot paths; writes bench-results.json (sets up first)"
 	@echo "make sweep  - the slow tests (discrepancy cases, 50 SIGKILLs of the writing commands), the commands fuzzed with 20000 mutated inputs (tests/test_fuzz.py; FUZZ_SEED=N for another seed), then make discrepancy-sweep"
-	@echo "make discrepancy-sweep - the discrepancy workflow on 240 independent records (SWEEP_CASES, SWEEP_WORKERS); writes docs/discrepancy-sweep.md"
+	@echo "make discrepancy-sweep - the discrepancy workflow on 240 independent records (SWEEP_CASES, SWEEP_WORKERS); writes sweep-results/COMMIT.jsonl and .md (untracked) and the headline docs/discrepancy-sweep.md"
 	@echo "make clean  - remove .venv/ and build outputs"
 
 setup:
@@ -51,11 +51,13 @@ sweep: setup
 
 # The discrepancy workflow's accuracy on records of tests/independent_plant.py (issue 22), on dask workers;
 # SWEEP_RESUME=--resume goes on after an interruption. About 59 s a case per worker (240 cases: 235 worker-minutes).
+# The results and the full report go to sweep-results/COMMIT.jsonl and .md (not tracked), the headline to
+# docs/discrepancy-sweep.md.
 SWEEP_CASES ?= 240
 SWEEP_WORKERS ?= $(shell nproc)
 SWEEP_RESUME ?=
 discrepancy-sweep: setup
-	$(VENV)/bin/python scripts/discrepancy_sweep.py --cases $(SWEEP_CASES) --workers $(SWEEP_WORKERS) $(SWEEP_RESUME)
+	$(VENV)/bin/python -m scripts.discrepancy_sweep --cases $(SWEEP_CASES) --workers $(SWEEP_WORKERS) $(SWEEP_RESUME)
 
 clean:
 	rm -rf $(VENV) build install log emla_*/build emla_*/*.egg-info

@@ -1,17 +1,12 @@
 """Issue 22 on the independent plant (tests/independent_plant.py) through the sweep's own cases
-(scripts/discrepancy_sweep.py, by seed): a dry friction whose stuck contact damps the motion (LuGre's
+(scripts/discrepancy_sweep/, by seed): a dry friction whose stuck contact damps the motion (LuGre's
 micro-damping) closes to its noise floor with the mass and damping re-identified within 3 sigma; records from which
 the nominal model alone cannot be identified (a strong magnetic stiffness, a current sensor three samples late at
 3 kHz) are diagnosed from the start an effect gives instead of refused."""
-import sys
-from pathlib import Path
-
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / 'scripts'))
-import discrepancy_sweep as sweep  # noqa: E402
-
-from emla_core.model_file import read  # noqa: E402
+from emla_core.model_file import read
+from scripts import discrepancy_sweep as sweep
 
 
 def _case(seed):

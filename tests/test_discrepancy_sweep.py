@@ -1,16 +1,12 @@
-"""A small fixed subset of the discrepancy sweep (scripts/discrepancy_sweep.py, `make sweep`): the machinery end to end
+"""A small fixed subset of the discrepancy sweep (scripts/discrepancy_sweep/, `make sweep`): the machinery end to end
 on the installed suite (a clean record comes out adequate, a strong Coulomb friction is named, a pair whose best
 candidate by score is only a partial match is named right, a case that raises is a result, the dask run appends JSON
-lines and resumes) and the report writer."""
+lines and resumes) and the report writers."""
 import json
-import sys
-from pathlib import Path
 
 import pytest
 
-SCRIPTS = Path(__file__).resolve().parent.parent / 'scripts'
-sys.path.insert(0, str(SCRIPTS))
-import discrepancy_sweep as sweep  # noqa: E402
+from scripts import discrepancy_sweep as sweep
 
 
 def test_a_clean_record_is_adequate_and_a_strong_friction_is_named():
@@ -230,13 +226,24 @@ def test_the_report_lists_rates_and_every_miss(tmp_path):
     assert 'percentage < -100 %' in text and 'RuntimeError: boom' in text
 
 
+def test_the_headline_page_has_the_headline_and_names_the_full_report(tmp_path):
+    results = [_result(1, 'clean', [], 'adequate', [], strength=0.3),
+               _result(4, 'single', ['return_spring'], 'unexplained', [], strength=40.0)]
+    text = sweep.write_headline(results, tmp_path / 'headline.md', command='the command',
+                                full='sweep-results/abc1234.md').read_text()
+    assert 'the command' in text and '2 cases' in text and 'sweep-results/abc1234.md' in text
+    assert '| clean records called adequate (nothing named) | 1/1 (100.0 %) | 0/0 (-) | 1/1 (100.0 %) |' in text
+    assert '## Every miss, by case' not in text and '--case 4 ' not in text   # the misses: in the full report
+
+
 def test_the_sweep_runs_on_dask_appends_and_resumes(tmp_path):
-    out, doc = tmp_path / 'sweep.jsonl', tmp_path / 'sweep.md'
+    out, doc, headline = tmp_path / 'sweep.jsonl', tmp_path / 'sweep.md', tmp_path / 'headline.md'
     argv = ['--cases', '2', '--first-seed', '19', '--workers', '1', '--duration', '0.5', '--out', str(out),
-            '--doc', str(doc), '--code', 'installed', '--no-report-text']
+            '--doc', str(doc), '--headline', str(headline), '--code', 'installed', '--no-report-text']
     assert sweep.main(argv) == 0
     lines = [json.loads(line) for line in out.read_text().splitlines()]
     assert sorted(r['seed'] for r in lines) == [19, 20]
-    assert '2 cases' in doc.read_text()
+    assert '2 cases' in doc.read_text() and '## Every miss, by case' in doc.read_text()
+    assert '2 cases' in headline.read_text() and doc.name in headline.read_text()
     assert sweep.main(argv + ['--resume']) == 0           # nothing left to run: the same results
     assert len(out.read_text().splitlines()) == 2
