@@ -7,7 +7,7 @@ from pathlib import Path
 
 from emla_core.errors import InputError
 
-from .inputs import DATA_HELP, add_data_arguments
+from .inputs import DATA_HELP, add_data_arguments, warn
 from .numbers import add_number
 from .output import add_force_argument, check_outputs, emit_json, write_output
 
@@ -20,7 +20,18 @@ def description():
     return """\
 Identify every recording given (files, bag directories, directories of them at any depth, glob patterns) as
 `emla identify` does, in parallel on a dask.distributed cluster, and follow each parameter across them in time
-order (a recording's time: its bag's stamps or its time column; recordings without one come last, by path).
+order; recordings without a time come last, by path. --start/--end take the same part of every record (s, on
+its own time axis), and a record with missing samples is identified in segments, as by `emla identify`.
+
+A recording's time (--time-from; the plot's abscissa and the JSON's "start", in s):
+  start            its first sample's (default): its bag's stamps (the wall clock), or its time column
+  mtime            its file's modification time (a bag directory's own)
+  column:NAME      the first value of the CSV column NAME, an absolute time in s (e.g. column:unix_time)
+  pattern:FORMAT   a date in its file name: FORMAT is a regular expression searched in the name, with %Y (4
+                   digits), %m %d %H %M %S (2 each), %f (a fraction's digits) or %s (s since 1970) where the
+                   name has them, read as UTC; e.g. 'pattern:run_%Y%m%dT%H%M%S' for run_20240131T120000.csv
+CSV files' time columns often all begin at 0: when every recording has the same time, a warning says so
+(they are then ordered by path and plotted at one time) and names --time-from.
 
 Runs on an embedded local cluster of --workers processes (default: the cores), or sends the same work to a
 running cluster with --scheduler tcp://HOST:PORT (`dask scheduler`, `dask worker`, or dask-jobqueue on
@@ -56,6 +67,10 @@ def add_arguments(parser):
                help='processes of the embedded local Dask cluster (default: the cores)')
     where.add_argument('--scheduler', metavar='tcp://HOST:PORT',
                        help='send the work to this running dask.distributed scheduler instead')
+    parser.add_argument('--time-from', default='start', metavar='HOW',
+                        help="each recording's time: start (default: its first sample's), mtime (its file's), "
+                             'column:NAME (a CSV column of absolute time in s) or pattern:FORMAT (a date in the '
+                             'file name, as run_%%Y%%m%%dT%%H%%M%%S: see above)')
     parser.add_argument('--resume', action='store_true',
                         help='skip the recordings already in --table (from an earlier run) and keep their rows')
     parser.add_argument('--json', metavar='FILE', help='write the result here instead of stdout')
@@ -95,6 +110,7 @@ def run(args):
                                  model_file=args.model_file,
                                  columns=args.columns, units=args.units, topics=args.topics,
                                  sample_period=args.sample_period, delimiter=args.delimiter, decimal=args.decimal,
+                                 start=args.start, end=args.end, time_from=args.time_from,
                                  workers=args.workers, scheduler=args.scheduler, done=done, progress=progress,
                                  checkpoint=_checkpoint(args.table), checkpoint_interval=CHECKPOINT_INTERVAL)
     except fleet.ClusterLost as exc:   # the table holds every recording identified (trend's last checkpoint)
@@ -102,6 +118,7 @@ def run(args):
                 f'on from there' if args.table else 'give --table FILE to keep the recordings done and --resume')
         raise InputError(f'{exc}; {kept}') from None
     _summary(result)
+    warn(result.warnings, 'trend')
     files = []
     if args.table:
         from emla_identification.fleet import write_table

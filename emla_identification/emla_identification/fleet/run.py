@@ -8,6 +8,10 @@ WORKERS_TIMEOUT s) ends the run in ClusterLost, after a last checkpoint of every
 not done are never listed as failed. Nothing redone: recordings already identified (`done`, from an earlier
 run's table) are skipped. Memory per worker is one recording's (long bags are identified part by part, as
 `emla identify` does), and the client holds only the small results.
+
+Time order is by each recording's time (recordings.recording_time: by default its first sample's); recordings that
+all have the same one (CSV files whose time columns all begin at 0) are warned about (Trend.warnings), as
+their order and the plot's abscissa then say nothing: `time_from` gives each its own.
 """
 import contextlib
 import logging
@@ -24,7 +28,7 @@ from emla_core.errors import InputError
 from emla_core.parameters import FAMILIES
 
 from .changes import detect_changes
-from .recordings import DATA_FLAGS, GREYBOX_MODELS, find_recordings, identify_recording
+from .recordings import DATA_FLAGS, GREYBOX_MODELS, TIME_FROM, check_time_from, find_recordings, identify_recording
 from .table import recordings_table
 
 CONNECT_TIMEOUT = 10.0   # s to reach a scheduler and have its answer (the TCP connect and dask's handshake)
@@ -48,7 +52,7 @@ class Trend:
     """The result of `trend`: the recordings identified (time order), the changes, the failures, where it ran.
 
     `table` is the pyarrow Table of the recordings (emla_identification.fleet.table); `to_dict()` the JSON of
-    `emla trend`."""
+    `emla trend`; `warnings` the lines about the trend as a whole (every recording at one time), for stderr."""
 
     recordings: list
     changes: list
@@ -58,6 +62,7 @@ class Trend:
     seconds: float
     skipped: int = 0   # recordings taken from `done` instead of identified again
     table: pa.Table = field(default=None, repr=False)
+    warnings: list = field(default_factory=list)
 
     def to_dict(self) -> dict:
         """{"recordings": [{path, start, duration, parameters, std, fit, warnings}], "changes", "failed",
@@ -71,7 +76,8 @@ def trend(paths: Iterable[str | Path], *, actuator: str = 'moving_coil', model: 
           structure: object = None,
           model_file: str | None = None, columns: str | None = None, units: str | None = None,
           topics: str | None = None, sample_period: float | None = None, delimiter: str | None = None,
-          decimal: str | None = None, workers: int | None = None, scheduler: str | None = None,
+          decimal: str | None = None, start: float | None = None, end: float | None = None,
+          time_from: str = 'start', workers: int | None = None, scheduler: str | None = None,
           client: object = None, done: Sequence[dict] = (),
           progress: Callable[[int, int, int], object] | None = None,
           checkpoint: Callable[[list], object] | None = None, checkpoint_interval: float = 60.0) -> Trend:
@@ -92,6 +98,13 @@ def trend(paths: Iterable[str | Path], *, actuator: str = 'moving_coil', model: 
         The model file's name, for messages.
     columns, units, topics, sample_period, delimiter, decimal : optional
         The data flags of `emla identify` (emla_core.load), the same for every recording.
+    start, end : float, optional
+        The window (s, on each record's own time axis, as `emla identify --start --end`): the same part of
+        every recording is identified.
+    time_from : str, optional
+        Where each recording's time comes from (recordings.recording_time's `how`): 'start' (default: its
+        first sample's), 'mtime' (its file's modification time), 'column:NAME' (a CSV column of absolute time,
+        its first value) or 'pattern:FORMAT' (a date in its name, e.g. 'pattern:run_%Y%m%dT%H%M%S').
     workers : int, optional
         Worker processes of the embedded LocalCluster (default: the cores this process may use).
     scheduler : str, optional
@@ -112,14 +125,16 @@ def trend(paths: Iterable[str | Path], *, actuator: str = 'moving_coil', model: 
     Returns
     -------
     Trend
-        recordings (time order: by start, then path; those without a start last), changes
-        (fleet.changes.detect_changes), failed ([{path, error}]), scheduler ('local' or its address), workers,
-        seconds, skipped, and `table`: the pyarrow Table of the recordings.
+        recordings (time order: by start, the time `time_from` gives, then path; those without one last),
+        changes (fleet.changes.detect_changes), failed ([{path, error}]), scheduler ('local' or its address),
+        workers, seconds, skipped, `table`: the pyarrow Table of the recordings, and `warnings`: a line when
+        every recording has the same time (naming --time-from).
 
     Raises
     ------
     InputError
-        No recordings, a bad option, or a scheduler that cannot be reached, does not answer within CONNECT_TIMEOUT
+        No recordings, a bad option (a window that ends before it starts, a `time_from` pattern a recording's
+        name does not match), or a scheduler that cannot be reached, does not answer within CONNECT_TIMEOUT
         or has no workers.
     ClusterLost
         (an InputError) The scheduler lost mid-run, or no worker there for WORKERS_TIMEOUT s: `checkpoint` has
@@ -143,11 +158,15 @@ def trend(paths: Iterable[str | Path], *, actuator: str = 'moving_coil', model: 
                          f'{", ".join(GREYBOX_MODELS)}')
     if workers is not None and workers < 1:
         raise InputError(f'--workers {workers}: must be at least 1')
+    if start is not None and end is not None and not start < end:
+        raise InputError(f'--start {start:g} s must be before --end {end:g} s')
     found = find_recordings(paths)
     previous = {os.path.realpath(r['path']): r for r in done}
     kept = [previous[os.path.realpath(p)] for p in found if os.path.realpath(p) in previous]
     todo = [p for p in found if os.path.realpath(p) not in previous]
+    check_time_from(time_from, todo)
     options = {'actuator': actuator, 'model': model, 'structure': structure, 'model_file': model_file,
+               'start': start, 'end': end, 'time_from': time_from,
                **dict(zip(DATA_FLAGS, (columns, units, topics, sample_period, delimiter, decimal)))}
     identified, failed = list(kept), []
     where, count = 'none', 0
@@ -161,12 +180,24 @@ def trend(paths: Iterable[str | Path], *, actuator: str = 'moving_coil', model: 
     failed.sort(key=lambda f: f['path'])
     return Trend(recordings=identified, changes=detect_changes(identified), failed=failed, scheduler=where,
                  workers=count, seconds=time.monotonic() - started, skipped=len(kept),
-                 table=recordings_table(identified))
+                 table=recordings_table(identified), warnings=_one_time(identified, time_from))
 
 
 def _time_order(record):
     start = record.get('start')
     return (start is None, start if start is not None else 0.0, record['path'])
+
+
+def _one_time(recordings, time_from):
+    """[the warning] when two recordings or more all have the same time (CSV files whose time columns all begin
+    at 0): they are then in the order of their paths and at one abscissa of the plot, which say nothing of
+    time; else []."""
+    times = {record.get('start') for record in recordings}
+    if len(recordings) < 2 or len(times) != 1 or None in times:
+        return []
+    where = "each one's first sample" if time_from == 'start' else f'--time-from {time_from}'
+    return [f'all {len(recordings)} recordings have the same time, {times.pop():.9g} s ({where}): they are '
+            f'ordered by path and plotted at one time; give each its own with --time-from ({TIME_FROM})']
 
 
 def _identify_all(client, todo, options, identified, failed, total, progress, checkpoint, interval):
