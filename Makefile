@@ -8,7 +8,7 @@ help:
 	@echo "make setup  - create .venv/ with ROS 2 Jazzy wheels, emla_msgs and the emla packages (idempotent)"
 	@echo "make test   - the lint gate, then the test suite without its slow cases, on TEST_WORKERS processes (about 9 min on 2 cores; sets up first)"
 	@echo "make test-all - the lint gate, then every test, the slow discrepancy cases too (about 25 min on 2 cores)"
-	@echo "make lint   - the lint gate alone: ruff check (ruff.toml)"
+	@echo "make lint   - the lint gate alone: ruff check (ruff.toml), then the mypy type check (mypy.ini)"
 	@echo "make demo   - run the default scenario end to end (sets up first)"
 	@echo "make bench  - measure the hot paths; writes bench-results.json (sets up first)"
 	@echo "make sweep  - the slow tests (discrepancy cases, 50 SIGKILLs of the writing commands), the commands fuzzed with 20000 mutated inputs (tests/test_fuzz.py; FUZZ_SEED=N for another seed), then make discrepancy-sweep"
@@ -33,8 +33,11 @@ test: setup lint
 test-all: setup lint
 	$(PYTEST) tests
 
+# The type check runs on the six packages' sources (mypy.ini: default strictness; about 25 s).
+MYPY_PACKAGES := $(foreach p,emla_core emla_sim emla_identification emla_control emla_bench emla_cli,-p $(p))
 lint: setup
 	$(VENV)/bin/ruff check .
+	$(VENV)/bin/python -m mypy --config-file mypy.ini $(MYPY_PACKAGES)
 
 demo: setup
 	bash scripts/demo.sh

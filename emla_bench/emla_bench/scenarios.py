@@ -121,7 +121,7 @@ class Scenario:
 
 @dataclasses.dataclass
 class ScenarioResult:
-    scenario: Scenario
+    scenario: Scenario | ValveScenario
     runs: dict  # case -> LoopResult
     metrics: dict  # case -> {rms_tracking_error, max_overshoot, settling_time, peak_current}
     compensated_effects: dict = dataclasses.field(default_factory=dict)  # case -> final online effect estimates

@@ -73,7 +73,7 @@ class InverseSystemController:
         self._held = 0.0  # step_ahead: the voltage over the coming interval
         self._prediction_steps = math.ceil(self.control_period / PREDICTION_STEP - 1e-9)
         self.accepted = 0
-        self.rejections = collections.Counter()  # reason -> count
+        self.rejections: collections.Counter[str] = collections.Counter()  # reason -> count
 
     def set_effects(self, effects: Mapping[str, float]) -> None:
         """Compensate the model's effects {'coulomb_force', 'spring_stiffness', 'spring_center'} (missing: 0)."""

@@ -147,7 +147,8 @@ def from_columns(table, source, *, columns=None, units=None, sample_period=None,
     for signal, column in chosen.items():
         header_unit = split_header(column)[1]
         if signal in given_units:
-            scale, unit, origin = *parse_unit(signal, given_units[signal]), '--units'
+            scale, unit = parse_unit(signal, given_units[signal])
+            origin = '--units'
         elif header_unit is not None:
             try:
                 scale, unit = parse_unit(signal, header_unit)

@@ -300,8 +300,10 @@ def load_yaml(text: str, path: Path | str, what: str = 'model file'):
         for event in yaml.parse(text, Loader=yaml.CSafeLoader):
             depth += isinstance(event, yaml.CollectionStartEvent) - isinstance(event, yaml.CollectionEndEvent)
             if depth > MAX_NESTING:
+                # the stubs make an event's start_mark Optional; the parser's events always have one
+                line = event.start_mark.line + 1  # type: ignore[union-attr]
                 raise InputError(f'{path}: nested too deeply to be a {what} (more than {MAX_NESTING} levels, line '
-                                 f'{event.start_mark.line + 1})')
+                                 f'{line})')
         return yaml.load(text, Loader=StrictLoader)
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark

@@ -11,7 +11,7 @@ the current (the exact structure of the coil current's response to the held volt
 """
 
 from dataclasses import dataclass
-from typing import Self
+from typing import Any, Self
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -161,7 +161,7 @@ def identify_arx(u: ArrayLike, y: ArrayLike, na: int, nb: int, nk: int, forgetti
     su, sy = _scale(u), _scale(y)
     Phi, Y = arx_regressors(np.asarray(u, dtype=float) / su, np.asarray(y, dtype=float) / sy, na, nb, nk)
     if len(Y) == 0:
-        raise ValueError(f'record of {len(y)} samples is too short for ARX({na}, {nb}, {nk})')
+        raise ValueError(f'record of {len(np.asarray(y))} samples is too short for ARX({na}, {nb}, {nk})')
     rls = RecursiveLeastSquares(na + nb, forgetting=forgetting, initial_covariance=initial_covariance)
     rls.update_block(Phi, Y)
     if not np.all(np.isfinite(rls.theta)):
@@ -187,7 +187,7 @@ class ArxEstimator:
     beyond RESCALE_BEYOND, this does not): the same theta, and the fit and MSE of the latest
     theta over every row used, from the rows' mean and scatter (to rounding; ill-conditioned rows cost digits)."""
 
-    def __init__(self, na: int, nb: int, nk: int, **rls_options: object) -> None:
+    def __init__(self, na: int, nb: int, nk: int, **rls_options: Any) -> None:
         self._orders = _check_orders(na, nb, nk)
         self.rls = RecursiveLeastSquares(na + nb, **rls_options)
         self._lag = _history(*self._orders)

@@ -59,7 +59,7 @@ class GreyBoxResult:
     samples: int
     sample_period: float
     forgetting: float
-    trajectory: Trajectory = field(repr=False, default=None)
+    trajectory: Trajectory | None = field(repr=False, default=None)
     fit: dict = field(repr=False, default_factory=dict)   # {equation: fit_check.EquationFit}
     notes: list = field(default_factory=list)              # what the identification chose, in words
 
@@ -185,16 +185,16 @@ def identify(data: Recording | Path | str | None = None, model: str | None = Non
     """
     recording = as_recording(data, sample_period=sample_period, voltage=voltage, current=current,
                              position=position, force=force, velocity=velocity, time=time, gaps=True)
-    model, kinds, lam = checked(recording, model, forgetting, memory_time)
+    model_name, kinds, lam = checked(recording, model, forgetting, memory_time)   # model None: the default
     scales = unit_scales(recording)
     report = progress or (lambda done: None)
-    with numerical_failures(recording.source, f'the {model} model cannot be identified'):
+    with numerical_failures(recording.source, f'the {model_name} model cannot be identified'):
         if recording.gaps:   # in segments: no row spans a gap (segments.py restarts the rows at each)
-            identified = identify_segments(_scaled(recording, scales), model, kinds, lam, initial_covariance, points,
-                                           report, spring, chosen_result)
+            identified = identify_segments(_scaled(recording, scales), model_name, kinds, lam, initial_covariance,
+                                           points, report, spring, chosen_result)
         else:
-            identified = _sprung(_scaled(recording, scales), model, kinds, lam, initial_covariance, points, report,
-                                 spring)
+            identified = _sprung(_scaled(recording, scales), model_name, kinds, lam, initial_covariance, points,
+                                 report, spring)
     return _unscaled(identified, scales)
 
 

@@ -120,7 +120,7 @@ class Statistics:
     lags: np.ndarray
     weight: float
     forgetting: float
-    instrument_moments: np.ndarray = None
+    instrument_moments: np.ndarray | None = None
     effects: tuple = ()
 
     def check(self):

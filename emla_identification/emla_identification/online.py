@@ -62,8 +62,10 @@ class OnlineIdentifier:
         self.kinds = regressions_for(model, signals)
         self._stream = RowStream(self.kinds, self.sample_period)
         forgetting = 1.0 if forgetting is None else forgetting
-        effects = (effects,) if isinstance(effects, str) else getattr(effects, 'effects', effects)
-        columns = columns_for(effects, forgetting_factor(forgetting, memory_time, self.sample_period))
+        effect_entries = getattr(effects, 'effects', effects)   # a Model: its effects
+        if isinstance(effect_entries, str):
+            effect_entries = (effect_entries,)
+        columns = columns_for(effect_entries, forgetting_factor(forgetting, memory_time, self.sample_period))
         self._effects = EffectColumns(columns, self.sample_period) if columns else None
         if columns and 'velocity' in SIGNALS[self.kinds[0]]:
             raise InputError('effects are estimated online from the position; this identifier has the velocity')

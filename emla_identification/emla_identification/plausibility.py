@@ -86,9 +86,9 @@ class Magnitudes:
     a signal it lacks."""
 
     sample_period: float
-    voltage: float = None
-    current: float = None
-    stroke: float = None
+    voltage: float | None = None
+    current: float | None = None
+    stroke: float | None = None
 
     @classmethod
     def of(cls, recording):
@@ -209,7 +209,7 @@ class Memory:
     """The forgetting factor an estimate was made with and the samples of its record."""
 
     forgetting: float = 1.0
-    samples: int = None
+    samples: int | None = None
 
     @property
     def samples_remembered(self):

@@ -211,9 +211,9 @@ class RecursiveLeastSquares:
         """The same recursion over the rows of Phi (N x n) and Y (N,); returns the N a-priori errors.
 
         instruments: None, or an N x n array of instruments (instrumental variables, see the module doc)."""
-        Phi, Y = check_regression(Phi, Y, self._n)
-        errors = np.empty(Y.shape[0])
-        self._run(Phi, Y, errors, None if instruments is None else check_instruments(instruments, Phi))
+        rows, targets = check_regression(Phi, Y, self._n)
+        errors = np.empty(targets.shape[0])
+        self._run(rows, targets, errors, None if instruments is None else check_instruments(instruments, rows))
         return errors
 
     def _run(self, Phi, Y, errors, Zeta=None):

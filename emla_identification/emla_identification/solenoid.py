@@ -238,7 +238,8 @@ def solenoid_hint(recording: Recording) -> str | None:
              if name in ('voltage', 'current', 'position')}
     try:
         with np.errstate(all='ignore'):
-            result = identify_solenoid(sample_period=recording.sample_period, **first)
+            result = identify_solenoid(sample_period=recording.sample_period, voltage=first.get('voltage'),
+                                       current=first.get('current'), position=first.get('position'))
     except (InputError, ValueError, ArithmeticError):   # (numpy's LinAlgError is a ValueError) no solenoid either
         return None
     if result.warnings():

@@ -23,6 +23,7 @@ with none named, located on the signals the residual depends on). The gap is the
 under the measured voltage (solenoid_predict.py), before and after. Not in the library: the iron's hysteresis.
 """
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -60,9 +61,9 @@ class SolenoidDiagnosis:
 
     nominal: SolenoidResult
     tried: dict
-    names: list = None
+    names: list | None = None
     final: SolenoidResult | None = None
-    gaps: dict = None      # 'before' / 'after': {signal: NRMSE of the free run}
+    gaps: dict | None = None      # 'before' / 'after': {signal: NRMSE of the free run}
 
     def share(self, candidate: Candidate) -> float:
         """The share of its equation's excess power over the floor that the candidate removes, in [-1, 1]."""
@@ -83,14 +84,18 @@ class SolenoidDiagnosis:
 
     @property
     def verdict(self) -> str:
-        if not self.names and all(f.adequate for f in self.nominal.fit.values()):
-            return 'adequate'
-        return 'explained' if self.names and all(f.adequate for f in self.final.fit.values()) else 'unexplained'
+        if not self.names:
+            return 'adequate' if all(f.adequate for f in self.nominal.fit.values()) else 'unexplained'
+        assert self.final is not None   # diagnose_solenoid sets it with the names
+        return 'explained' if all(f.adequate for f in self.final.fit.values()) else 'unexplained'
 
     def to_dict(self) -> dict:
         """The `emla discrepancy --actuator solenoid` JSON (the moving coil's keys where they apply)."""
         verdict = self.verdict
-        effects, candidates = [], []
+        final, names, gaps = self.final, self.names, self.gaps
+        assert final is not None and names is not None and gaps is not None, 'diagnose_solenoid sets them'
+        effects: list[dict[str, Any]] = []
+        candidates = []
         for c in CANDIDATES:
             tried, share = self.tried[c.name], self.share(c)
             setting = (f' (friction_speed {tried.settings["friction_speed"]:.3g} m/s)'
@@ -101,23 +106,23 @@ class SolenoidDiagnosis:
                         f'its excess removed')
             candidates.append({'effect': c.name, 'score': round(share, 6), 'significant': self.significant(c),
                                'evidence': evidence})
-            if c in self.names:
-                effects.append({'effect': c.name, 'parameters': {c.parameter: self.final.parameters[c.parameter]},
-                                'std': {c.parameter: self.final.std[c.parameter]},
+            if c in names:
+                effects.append({'effect': c.name, 'parameters': {c.parameter: final.parameters[c.parameter]},
+                                'std': {c.parameter: final.std[c.parameter]},
                                 'settings': dict(tried.settings), 'share': round(share, 4),
-                                'gap_after': dict(self.gaps['after'])})
+                                'gap_after': dict(gaps['after'])})
         return {'actuator': 'solenoid', 'verdict': verdict,
                 'missing_effect': effects[0]['effect'] if effects else ('none' if verdict == 'adequate'
                                                                         else 'unexplained'),
                 'effects': effects,
-                'disagreement': {name: fit.to_dict() for name, fit in self.final.fit.items()},
+                'disagreement': {name: fit.to_dict() for name, fit in final.fit.items()},
                 'disagreement_nominal': {name: fit.to_dict() for name, fit in self.nominal.fit.items()},
-                'candidates': candidates, 'gap_before': dict(self.gaps['before']),
-                'gap_after': dict(self.gaps['after']),
+                'candidates': candidates, 'gap_before': dict(gaps['before']),
+                'gap_after': dict(gaps['after']),
                 'added_parameters': {k: v for e in effects for k, v in e['parameters'].items()},
                 'nominal_parameters': dict(self.nominal.parameters),
-                'reidentified_parameters': dict(self.final.parameters),
-                'reidentified_parameters_std': dict(self.final.std), 'warnings': self.final.warnings()}
+                'reidentified_parameters': dict(final.parameters),
+                'reidentified_parameters_std': dict(final.std), 'warnings': final.warnings()}
 
 
 def diagnose_solenoid(data) -> SolenoidDiagnosis:
@@ -153,7 +158,7 @@ def diagnose_solenoid(data) -> SolenoidDiagnosis:
     while len(named) > 1:   # together: the least significant under MIN_T sigmas out, until none is
         final = identify_solenoid(recording, **{c.option: True for c in named})
         t = {c: final.parameters[c.parameter] / final.std[c.parameter] for c in named}
-        weakest = min(named, key=t.get)
+        weakest = min(named, key=t.__getitem__)
         if t[weakest] >= MIN_T:
             break
         named.remove(weakest)

@@ -29,6 +29,16 @@ class ResistanceEstimate:
     (ohm): ResistanceTracker, solenoid_observer.PositionObserver."""
 
     @property
+    def resistance(self) -> float:
+        """The estimate of R (ohm): each subclass's."""
+        raise NotImplementedError
+
+    @property
+    def std(self) -> float:
+        """Its one-sigma (ohm): each subclass's."""
+        raise NotImplementedError
+
+    @property
     def effects(self) -> tuple[str, ...]:
         """The names it publishes."""
         return ('resistance',)
@@ -68,7 +78,8 @@ class ResistanceTracker(ResistanceEstimate):
         self.sample_period = float(sample_period)
         self._rls = RecursiveLeastSquares(1, memory_time=memory_time, sample_period=self.sample_period,
                                           initial_covariance=1e6, initial_theta=[params.resistance])
-        self._last = None   # (voltage, current, flux linkage) of the previous frame's last sample
+        # (voltage, current, flux linkage) of the previous frame's last sample
+        self._last: tuple[float, float, float] | None = None
 
     @property
     def samples(self) -> int:
@@ -135,7 +146,7 @@ class WindowedSolenoid:
         self.sample_period = float(sample_period)
         self._size = max(1, round(window / sample_period))
         self._every = max(1, round(refit_period / sample_period))
-        self._frames = []           # (3, n) arrays of the samples since the window's start, kept until a fit
+        self._frames: list[np.ndarray] = []   # (3, n) arrays of the samples since the window's start, kept until a fit
         self._new = 0               # samples since the last fit
         self.result = None          # the latest SolenoidResult
         self.failure = None         # why the latest fit failed (None: it did not)

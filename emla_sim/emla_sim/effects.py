@@ -29,4 +29,5 @@ class ParameterChange:
         """The ActuatorParameters after this change (they validate the result)."""
         if self.factor is not None:
             return params.scaled(**{self.parameter: self.factor})
+        assert self.value is not None  # __post_init__: exactly one of factor and value
         return params.replace(**{self.parameter: self.value})

@@ -103,7 +103,7 @@ class Plant:
             raise ValueError(f'substeps must be a positive integer or None, got {substeps!r}')
         self._substeps = substeps
         # the parameters after each change, worked out now so that an impossible change fails here
-        self._schedule = collections.deque()
+        self._schedule: collections.deque[tuple[float, ActuatorParameters]] = collections.deque()
         scheduled = params
         for change in sorted(changes, key=lambda c: c.time):
             scheduled = change.apply(scheduled)

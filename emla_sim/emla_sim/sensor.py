@@ -69,7 +69,8 @@ class Sensor:
         current_rng, position_rng = np.random.default_rng(self.config.seed).spawn(2)
         self._current_noise = _NormalStream(current_rng)
         self._position_noise = _NormalStream(position_rng)
-        self._line = collections.deque()  # the last delay_samples true (current, position) pairs
+        # the last delay_samples true (current, position) pairs
+        self._line: collections.deque[tuple[float, float]] = collections.deque()
 
     def measure(self, current: float | np.ndarray,
                 position: float | np.ndarray) -> tuple[float, float] | tuple[np.ndarray, np.ndarray]:

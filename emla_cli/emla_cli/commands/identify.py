@@ -135,8 +135,8 @@ def run(args):
                    '--trajectory': args.trajectory}, [args.data, args.model_file], args.force)
     structure = None
     if args.model_file:
-        from emla_core.model_file import read
-        structure = read(args.model_file).require('moving_coil', args.model_file)
+        from emla_core.model_file import read as read_model
+        structure = read_model(args.model_file).require('moving_coil', args.model_file)
     with read_warnings() as lost:  # a bag's skipped chunks and the data they cost, for the JSON too
         parts, lam = None, 1.0   # lam: the forgetting factor of the grey-box estimate
         if model == 'arx':

@@ -38,8 +38,8 @@ _FIELD = re.compile(r'^(\w+)(?:\[([^\]]+)\])?$')
 class TopicSignal:
     """Where one signal comes from: a topic, a field of its messages and an element of that field."""
     topic: str
-    field: str = None
-    index: str = None      # an element number or a joint name
+    field: str | None = None
+    index: str | None = None      # an element number or a joint name
 
     def describe(self):
         return self.topic + (f':{self.field}' if self.field else '') + (f'[{self.index}]' if self.index else '')

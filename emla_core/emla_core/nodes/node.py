@@ -18,7 +18,7 @@ class EmlaNode(Node):
     second, not once per message."""
 
     NAME = ''
-    POLL_PERIOD = None
+    POLL_PERIOD: float | None = None
 
     def __init__(self):
         super().__init__(self.NAME, namespace='/emla')

@@ -28,8 +28,8 @@ class Spec:
     name: str
     default: object
     description: str
-    low: float = None
-    high: float = None
+    low: float | None = None
+    high: float | None = None
 
     def descriptor(self):
         descriptor = ParameterDescriptor(description=self.description, read_only=True)

@@ -37,7 +37,7 @@ from typing import ClassVar
 
 import numpy as np
 
-CANDIDATES = {}
+CANDIDATES: 'dict[str, type[Candidate]]' = {}
 
 
 def register_candidate(cls: 'type[Candidate]') -> 'type[Candidate]':

@@ -17,7 +17,10 @@ with names, SI units, bounds and defaults, and the dataclass has one field for e
 import dataclasses
 import math
 import numbers
-from typing import ClassVar, Self
+from typing import TYPE_CHECKING, ClassVar, Self
+
+if TYPE_CHECKING:   # for the annotation only: register_effect imports candidate.py when it is first needed
+    from .candidate import Candidate
 
 AMBIENT_TEMPERATURE = 20.0  # deg C; the coil temperature when no thermal model is active
 
@@ -58,13 +61,13 @@ class Effect:
     name: ClassVar[str] = ''
     parameters: ClassVar[tuple] = ()        # Parameter: fitted, in the model file's `parameters`
     settings: ClassVar[tuple] = ()          # Parameter: fixed per variant, in the model file's `settings`
-    candidate: ClassVar[type] = None        # the discrepancy workflow's Candidate of this effect
+    candidate: ClassVar['type[Candidate] | None'] = None   # the discrepancy workflow's Candidate of this effect
     online: ClassVar[object] = None         # an OnlineColumn, or None (then online_refusal says why)
     online_refusal: ClassVar[str] = ''
     online_by_forgetting: ClassVar[bool] = False   # followed online by the forgetting, not by a column
     control_refusal: ClassVar[str] = ''     # why the inverse law does not compensate it ('' when it does)
     simulation_refusal: ClassVar[str] = ''  # why the plant does not simulate it ('' when it does)
-    ambient_temperature = None              # deg C, for an effect that models the coil temperature
+    ambient_temperature: float | None = None   # deg C, for an effect that models the coil temperature
 
     def __post_init__(self):
         where = type(self).__name__
@@ -122,7 +125,7 @@ class Effect:
         return cls(**fields)
 
 
-EFFECTS = {}
+EFFECTS: dict[str, type[Effect]] = {}
 
 
 def register_effect(cls: type[Effect]) -> type[Effect]:

@@ -22,7 +22,7 @@ class Adequacy(LowBand):
 
     equation: str = ''        # 'electrical' or 'mechanical'
     quantity: str = ''        # 'voltage' (V) or 'force' (N)
-    residual: np.ndarray = None  # held-out one-step residual in physical units, per regression row
+    residual: np.ndarray | None = None  # held-out one-step residual in physical units, per regression row
 
     def to_dict(self):
         return {'quantity': self.quantity, 'size': float(self.size), 'noise_floor': float(self.floor),

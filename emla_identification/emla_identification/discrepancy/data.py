@@ -44,7 +44,7 @@ class Data:
     shaping: dict = field(default_factory=dict)   # name -> FIR taps a re-alignment applied to its noise
     # the voltage's mean over each of PARTS parts of every interval (window and spare: samples x PARTS) where a
     # re-alignment left it not held over the interval (the exact rows take it so, rows.py); None: held
-    voltage_parts: np.ndarray = None
+    voltage_parts: np.ndarray | None = None
     # re-align with finer interpolators (an all-pass two orders higher; a position's slope unsmoothed): what the
     # estimates do then bounds what the interpolation leaves in them (profile.finer)
     finer: bool = False
@@ -264,9 +264,9 @@ class State:
     index: np.ndarray
     position: np.ndarray
     velocity: np.ndarray
-    current: np.ndarray = None
-    voltage: np.ndarray = None
-    force: np.ndarray = None
+    current: np.ndarray | None = None
+    voltage: np.ndarray | None = None
+    force: np.ndarray | None = None
 
     @property
     def time(self):

@@ -44,12 +44,12 @@ class Stage:
 @dataclass
 class Diagnosis:
     data: Data
-    nominal: object                  # Fit
+    nominal: Fit
     candidates: list                 # Assessments against the nominal model, best first
     nominal_adequacy: dict           # equation -> Adequacy
     before: dict                     # signal -> Prediction of the nominal model
     stages: list = field(default_factory=list)   # Stages, in the order the effects were named
-    partial: object = None           # the best candidate after the last stage when it is only a partial match
+    partial: Assessment | None = None   # the best candidate after the last stage when it is only a partial match
     remaining: list = field(default_factory=list)   # Assessments of the candidates not named against the final model
     warnings: list = field(default_factory=list)  # the nominal model's implausible values and their likely causes
 

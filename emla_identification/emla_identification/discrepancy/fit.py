@@ -30,7 +30,7 @@ from emla_core.physics import Candidate
 from emla_core.recording import Recording
 
 from ..greybox import identify
-from .data import regression_rows
+from .data import Data, regression_rows
 from .rows import bending, has_inductance, nominal_names, rows_of
 
 FOLDS = 10
@@ -96,13 +96,13 @@ class ModelOnData:
     """The model nominal + `candidates` on `data`: what the subsystem predictions (predict.py) and the residuals
     need, whether the model was fitted here (a Fit) or given."""
 
-    data: object
+    data: Data
     candidates: tuple
     shift: np.ndarray      # the nominal parameters' correction dq from `linearised_about` (nominal_names order)
     added: np.ndarray      # the candidates' parameters, in order
     parameters: dict       # nominal physical parameters (greybox names), + 'sample_period'
     linearised_about: dict  # the model the rows, their Jacobian and the candidates' columns are evaluated about
-    linearised_added: np.ndarray = None   # and the candidates' parameters (None: zero)
+    linearised_added: np.ndarray | None = None   # and the candidates' parameters (None: zero)
 
     def added_slices(self):
         """(candidate, slice of `added`) pairs."""

@@ -45,7 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .adequacy import EQUATION
-from .fit import FOLDS, physical
+from .fit import FOLDS, Fit, physical
 from .measures import removed_share
 from .noise import excess_noise
 
@@ -75,7 +75,7 @@ class Assessment:
     """One candidate, at its best variant, judged against a base model."""
 
     name: str                   # the effect's name (a candidate may name its result by the sign found)
-    fit: object                 # base + this candidate, fitted
+    fit: Fit                    # base + this candidate, fitted
     score: float
     per_equation: dict          # kind -> fraction of that equation's held-out error removed
     blocks_improved: int

@@ -50,7 +50,7 @@ BEND = 0.05   # a candidate's voltage bends the current's path where its slope d
 KEPT_ROWS = 2   # Rows kept (rows_of): of two regressions about the three models last linearised about
 
 
-_KEPT = {}   # (id of the data, kind, model) -> Rows, least recently asked first
+_KEPT: 'dict[tuple, Rows]' = {}   # (id of the data, kind, model) -> Rows, least recently asked first
 
 
 def bending(candidates, data, model):

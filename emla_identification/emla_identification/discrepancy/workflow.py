@@ -80,14 +80,14 @@ def diagnose(data: Recording | Path | str | None = None, names: Sequence[str] | 
     """
     recording = as_recording(data, sample_period=sample_period, voltage=voltage, current=current, position=position,
                              force=force)
-    data = Data.from_recording(recording)
+    windowed = Data.from_recording(recording)
     check_magnitudes(recording)
-    with numerical_failures(data.source, 'the model cannot be diagnosed'):   # degenerate data show up as
+    with numerical_failures(windowed.source, 'the model cannot be diagnosed'):   # degenerate data show up as
         if progress is not None:
             progress('the nominal model', 0, 1, '')
-        nominal, warnings = nominal_model(data, recording, names)             # non-finite or unphysical estimates
+        nominal, warnings = nominal_model(windowed, recording, names)            # non-finite or unphysical estimates
         adequacy = adequacy_of(nominal)   # (no candidate reads a signal: the rows' floor is the whole floor)
-        ranked = rank(nominal, library(data, names), progress)
-        diagnosis = Diagnosis(data, nominal, ranked, adequacy, predict(nominal), warnings=warnings)
+        ranked = rank(nominal, library(windowed, names), progress)
+        diagnosis = Diagnosis(windowed, nominal, ranked, adequacy, predict(nominal), warnings=warnings)
         name_effects(diagnosis, names, nominal, adequacy, ranked, progress)
         return other_form(diagnosis, names, progress) if diagnosis.verdict == 'unexplained' else diagnosis

@@ -168,7 +168,8 @@ def trend(paths: Iterable[str | Path], *, actuator: str = 'moving_coil', model: 
     options = {'actuator': actuator, 'model': model, 'structure': structure, 'model_file': model_file,
                'start': start, 'end': end, 'time_from': time_from,
                **dict(zip(DATA_FLAGS, (columns, units, topics, sample_period, delimiter, decimal)))}
-    identified, failed = list(kept), []
+    identified: list = list(kept)
+    failed: list[dict] = []   # [{path, error}]
     where, count = 'none', 0
     if todo:
         with _cluster(workers, scheduler, client) as (dask_client, where, count):

@@ -72,7 +72,7 @@ def table_recordings(table: pa.Table) -> list:
     names = [c for c in columns if f'{c}_std' in columns and c not in FIXED]
     recordings = []
     for row in rows:
-        fit = {}
+        fit: dict[str, dict] = {}
         for key in (c for c in columns if c.startswith(FIT_PREFIX)):
             value = row[key]
             if value is None:

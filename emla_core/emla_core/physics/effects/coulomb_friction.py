@@ -42,10 +42,10 @@ class _Candidate(Candidate):
     signs: ClassVar[tuple] = (1, 1)
     scale: ClassVar[str] = 'presliding'
     presliding: float = 0.0   # m
-    direction: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)   # at the samples
-    rate: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)        # dz/dt at the samples
-    between: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)     # (d, dz/dt) per piece
-    stuck: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
+    direction: np.ndarray | None = dataclasses.field(default=None, repr=False, compare=False)   # at the samples
+    rate: np.ndarray | None = dataclasses.field(default=None, repr=False, compare=False)        # dz/dt at the samples
+    between: np.ndarray | None = dataclasses.field(default=None, repr=False, compare=False)     # (d, dz/dt) per piece
+    stuck: np.ndarray | None = dataclasses.field(default=None, repr=False, compare=False)
 
     def variants(self, data):
         x = data.signals['position']

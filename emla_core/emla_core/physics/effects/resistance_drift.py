@@ -42,7 +42,7 @@ class _Candidate(Candidate):
     acts_on: ClassVar[tuple] = ('electrical',)
     signs: ClassVar[tuple] = (1,)
     thermal_time_constant: float = 0.0   # s
-    heating: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
+    heating: np.ndarray | None = dataclasses.field(default=None, repr=False, compare=False)
 
     scale: ClassVar[str] = 'thermal_time_constant'
 

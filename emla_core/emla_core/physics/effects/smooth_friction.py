@@ -70,9 +70,9 @@ class _Candidate(Candidate):
     scale: ClassVar[str] = 'smoothing_speed'
     smoothing_speed: float = 0.0   # m/s
     velocity_span: int = SPANS[0]  # samples (measured_velocities)
-    shape: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
-    between: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
-    velocity: tuple = dataclasses.field(default=None, repr=False, compare=False)   # (at the samples, between)
+    shape: np.ndarray | None = dataclasses.field(default=None, repr=False, compare=False)
+    between: np.ndarray | None = dataclasses.field(default=None, repr=False, compare=False)
+    velocity: tuple | None = dataclasses.field(default=None, repr=False, compare=False)   # (at the samples, between)
 
     def variants(self, data):
         velocities = measured_velocities(data)

@@ -39,11 +39,11 @@ class _Candidate(Candidate):
     scale: ClassVar[str] = 'stribeck_speed'
     stribeck_speed: float = 0.0   # m/s
     velocity_span: int = SPANS[0]  # samples (smooth_friction.measured_velocities)
-    shape: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)      # at the samples
-    between: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)    # per piece of interval
-    velocity: tuple = dataclasses.field(default=None, repr=False, compare=False)   # (at the samples, between)
-    direction: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
-    between_direction: np.ndarray = dataclasses.field(default=None, repr=False, compare=False)
+    shape: np.ndarray | None = dataclasses.field(default=None, repr=False, compare=False)      # at the samples
+    between: np.ndarray | None = dataclasses.field(default=None, repr=False, compare=False)    # per piece of interval
+    velocity: tuple | None = dataclasses.field(default=None, repr=False, compare=False)   # (at the samples, between)
+    direction: np.ndarray | None = dataclasses.field(default=None, repr=False, compare=False)
+    between_direction: np.ndarray | None = dataclasses.field(default=None, repr=False, compare=False)
     band: float = dataclasses.field(default=0.0, repr=False, compare=False)   # the direction's pre-sliding band (m)
 
     def variants(self, data):
